@@ -1,0 +1,91 @@
+//! `scene-gen --seed N`: generate a house and write it out.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, anyhow};
+use clap::{Args, ValueEnum};
+use scene_gen::config::GeneratorConfig;
+use scene_gen::export::{self, write_atomic};
+use scene_gen::generate::generate;
+use scene_gen::library::{Library, LibrarySource};
+use scene_gen::manifest::Manifest;
+use scene_gen::scene::Envelope;
+
+use super::{CliError, bad_input, failure};
+
+/// Scene file formats.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Format {
+    /// Binary glTF, one file.
+    Glb,
+}
+
+#[derive(Args, Debug)]
+pub struct GenerateArgs {
+    /// Seed of the house; the same seed and version give the same bytes.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Output folder (created if missing).
+    #[arg(long, default_value = "out")]
+    pub out: PathBuf,
+    /// Scene file format.
+    #[arg(long, value_enum, default_value_t = Format::Glb)]
+    pub format: Format,
+    /// Envelope WIDTHxDEPTHxHEIGHT in metres.
+    #[arg(long, default_value = "15x15x3", value_parser = parse_envelope)]
+    pub envelope: Envelope,
+    /// Smallest room side in metres, at wall centre lines.
+    #[arg(long, default_value_t = 5.0)]
+    pub min_room: f32,
+    /// Room-type library folder (default: the embedded rooms/).
+    #[arg(long)]
+    pub rooms: Option<PathBuf>,
+    /// Furniture library folder (default: the embedded furniture/).
+    #[arg(long)]
+    pub furniture: Option<PathBuf>,
+}
+
+/// Parses `WxDxH` in metres.
+fn parse_envelope(text: &str) -> Result<Envelope, String> {
+    let parts: Vec<&str> = text.split(['x', 'X']).collect();
+    let [w, d, h] = parts.as_slice() else {
+        return Err(format!("'{text}' is not WIDTHxDEPTHxHEIGHT in metres, e.g. 15x15x3"));
+    };
+    let num = |s: &str, what: &str| {
+        s.trim().parse::<f32>().map_err(|_| format!("'{s}' in '{text}' is not a number ({what})"))
+    };
+    Ok(Envelope { width_m: num(w, "width")?, depth_m: num(d, "depth")?, height_m: num(h, "height")? })
+}
+
+fn source(path: Option<&Path>) -> LibrarySource<'_> {
+    path.map_or(LibrarySource::Embedded, LibrarySource::Folder)
+}
+
+pub fn run(args: &GenerateArgs) -> Result<(), CliError> {
+    let library = Library::load(source(args.rooms.as_deref()), source(args.furniture.as_deref())).map_err(bad_input)?;
+    let config = GeneratorConfig {
+        seed: args.seed,
+        envelope: args.envelope,
+        min_room_m: args.min_room,
+        ..GeneratorConfig::default()
+    };
+    config.validate().map_err(bad_input)?;
+    let scene = generate(&config, &library).map_err(bad_input)?;
+
+    // Encode everything before writing anything, so a failure leaves no partial output.
+    let scene_file = match args.format {
+        Format::Glb => ("scene.glb", export::gltf::to_glb(&scene)),
+    };
+    let files = [
+        scene_file,
+        ("scene.json", Manifest::of(&scene).to_json().into_bytes()),
+        ("plan.png", export::plan::to_png(&scene)),
+    ];
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("cannot create output folder {}", args.out.display()))
+        .map_err(failure)?;
+    for (name, bytes) in &files {
+        write_atomic(&args.out.join(name), bytes).map_err(|e| failure(anyhow!(e)))?;
+    }
+    Ok(())
+}

@@ -1,0 +1,51 @@
+//! Command-line definitions and dispatch.
+
+mod generate;
+
+use clap::{Parser, Subcommand};
+
+/// A command's failure, classified for the exit status.
+pub struct CliError {
+    pub error: anyhow::Error,
+    /// True when the input (arguments, files) was at fault: exit status 2.
+    pub bad_input: bool,
+}
+
+impl CliError {
+    pub fn status(&self) -> u8 {
+        if self.bad_input { 2 } else { 1 }
+    }
+}
+
+/// Marks an error as caused by the user's input (exit 2).
+pub fn bad_input(error: impl Into<anyhow::Error>) -> CliError {
+    CliError { error: error.into(), bad_input: true }
+}
+
+/// Marks an error as a failure while working (exit 1).
+pub fn failure(error: impl Into<anyhow::Error>) -> CliError {
+    CliError { error: error.into(), bad_input: false }
+}
+
+/// Seeded indoor environments and camera simulation for task-specific camera design.
+#[derive(Parser, Debug)]
+#[command(name = "scene-gen", version, about, args_conflicts_with_subcommands = true)]
+pub struct Cli {
+    #[command(flatten)]
+    pub generate: generate::GenerateArgs,
+    #[command(subcommand)]
+    pub command: Option<Command>,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum Command {}
+
+pub fn parse() -> Cli {
+    Cli::parse()
+}
+
+pub fn run(cli: Cli) -> Result<(), CliError> {
+    match cli.command {
+        None => generate::run(&cli.generate),
+    }
+}

@@ -1,0 +1,39 @@
+//! scene-gen: seeded indoor environments and a physical camera simulator, for designing
+//! cameras for a task.
+//!
+//! The pipeline of DESIGN.md and the module that owns each stage:
+//!
+//! ```text
+//! seed + envelope ─► floorplan ─► structure ─► placement ─► lights ─► Scene ─┬─► export (glTF/GLB, plan.png)
+//!  (config)          (rooms/)     walls,       (furniture/)  day/night        │
+//!                                 thresholds                                  └─► renderer, evaluator, ...
+//! ```
+//!
+//! * [`config`]: what is asked for ([`config::GeneratorConfig`]) and its validation.
+//! * [`library`]: the room-type and furniture libraries (embedded, or folders at run time).
+//! * [`generate`]: runs the stages in order and returns a [`scene::Scene`].
+//! * [`floorplan`], [`structure`], [`placement`], [`lights`]: the stages.
+//! * [`materials`]: named surfaces to PBR materials with seeded procedural textures.
+//! * [`scene`]: the hub type; [`manifest`]: its `scene.json` form.
+//! * [`export`]: glTF/GLB, the plan picture, atomic writes.
+//!
+//! ```no_run
+//! use scene_gen::{config::GeneratorConfig, generate::generate, library::Library};
+//! let library = Library::embedded()?;
+//! let scene = generate(&GeneratorConfig { seed: 7, ..GeneratorConfig::default() }, &library)?;
+//! println!("{} rooms, {} objects", scene.rooms.len(), scene.objects.len());
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+pub mod config;
+pub mod export;
+pub mod floorplan;
+pub mod generate;
+pub mod library;
+pub mod lights;
+pub mod manifest;
+pub mod materials;
+pub mod placement;
+pub mod rng;
+pub mod scene;
+pub mod structure;
