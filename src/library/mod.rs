@@ -77,7 +77,7 @@ pub fn list_files(
     let mut files = Vec::new();
     match source {
         LibrarySource::Embedded => collect_embedded(embedded, label, &mut files),
-        LibrarySource::Folder(root) => collect_folder(root, root, &mut files)?,
+        LibrarySource::Folder(root) => collect_folder(root, &mut files)?,
     }
     files.sort_by(|a, b| a.path.cmp(&b.path));
     Ok(files)
@@ -92,14 +92,14 @@ fn collect_embedded(dir: &'static Dir<'static>, label: &str, out: &mut Vec<Libra
     }
 }
 
-fn collect_folder(root: &Path, dir: &Path, out: &mut Vec<LibraryFile>) -> Result<(), LibraryError> {
+fn collect_folder(dir: &Path, out: &mut Vec<LibraryFile>) -> Result<(), LibraryError> {
     let entries =
         std::fs::read_dir(dir).map_err(|e| LibraryError::new(dir, None, format!("cannot read folder: {e}")))?;
     for entry in entries {
         let entry = entry.map_err(|e| LibraryError::new(dir, None, format!("cannot read folder: {e}")))?;
         let path = entry.path();
         if path.is_dir() {
-            collect_folder(root, &path, out)?;
+            collect_folder(&path, out)?;
         } else {
             let bytes =
                 std::fs::read(&path).map_err(|e| LibraryError::new(&path, None, format!("cannot read: {e}")))?;
