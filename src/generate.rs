@@ -2,7 +2,7 @@
 //!
 //! Stages run in a fixed order, each drawing from its own seeded stream (see [`crate::rng`]):
 //! floorplan, structure (floors, ceilings, walls, windows, thresholds), furniture placement,
-//! lights.
+//! decor (rugs, pictures), lights.
 
 use crate::config::{ConfigError, GeneratorConfig};
 use crate::floorplan::{self, FloorplanError};
@@ -10,7 +10,7 @@ use crate::library::Library;
 use crate::materials::MaterialCatalog;
 use crate::placement::{self, PlacementError};
 use crate::scene::{Geometry, Scene};
-use crate::{lights, structure};
+use crate::{decor, lights, structure};
 
 /// Why a scene could not be generated.
 #[derive(Debug, thiserror::Error)]
@@ -33,6 +33,7 @@ pub fn generate(config: &GeneratorConfig, library: &Library) -> Result<Scene, Ge
     let first_object_instance = thresholds.iter().map(|t| t.instance_id).max().unwrap_or(0) + 1;
     let objects =
         placement::place(config, &plan, &thresholds, library, first_object_instance, &mut materials, &mut geometry)?;
+    decor::build(config, &plan, &objects, &mut materials, &mut geometry);
     let lights = lights::build(config, &plan, &objects);
     Ok(Scene {
         seed: config.seed,

@@ -12,7 +12,7 @@
 //! * [`config`]: what is asked for ([`config::GeneratorConfig`]) and its validation.
 //! * [`library`]: the room-type and furniture libraries (embedded, or folders at run time).
 //! * [`generate`]: runs the stages in order and returns a [`scene::Scene`].
-//! * [`floorplan`], [`structure`], [`placement`], [`lights`]: the stages.
+//! * [`floorplan`], [`structure`], [`placement`], [`decor`], [`lights`]: the stages.
 //! * [`materials`]: named surfaces to PBR materials with seeded procedural textures.
 //! * [`scene`]: the hub type; [`manifest`]: its `scene.json` form.
 //! * [`export`]: glTF/GLB, the plan picture, atomic writes.
@@ -26,6 +26,7 @@
 //! ```
 
 pub mod config;
+pub mod decor;
 pub mod export;
 pub mod floorplan;
 pub mod generate;
