@@ -18,6 +18,8 @@ use super::{CliError, bad_input, failure};
 pub enum Format {
     /// Binary glTF, one file.
     Glb,
+    /// Wavefront OBJ + MTL + textures/, Y up, one group per object.
+    Obj,
 }
 
 #[derive(Args, Debug)]
@@ -73,19 +75,24 @@ pub fn run(args: &GenerateArgs) -> Result<(), CliError> {
     let scene = generate(&config, &library).map_err(bad_input)?;
 
     // Encode everything before writing anything, so a failure leaves no partial output.
-    let scene_file = match args.format {
-        Format::Glb => ("scene.glb", export::gltf::to_glb(&scene)),
+    let mut files = match args.format {
+        Format::Glb => vec![("scene.glb".to_string(), export::gltf::to_glb(&scene))],
+        Format::Obj => export::obj::to_obj(&scene),
     };
-    let files = [
-        scene_file,
-        ("scene.json", Manifest::of(&scene).to_json().into_bytes()),
-        ("plan.png", export::plan::to_png(&scene)),
-    ];
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("cannot create output folder {}", args.out.display()))
-        .map_err(failure)?;
-    for (name, bytes) in &files {
-        write_atomic(&args.out.join(name), bytes).map_err(|e| failure(anyhow!(e)))?;
+    files.push(("scene.json".into(), Manifest::of(&scene).to_json().into_bytes()));
+    files.push(("plan.png".into(), export::plan::to_png(&scene)));
+    write_all(&args.out, &files)
+}
+
+/// Writes every file under `out`, each atomically.
+fn write_all(out: &Path, files: &[(String, Vec<u8>)]) -> Result<(), CliError> {
+    for (name, bytes) in files {
+        let path = out.join(name);
+        let dir = path.parent().unwrap_or(out);
+        std::fs::create_dir_all(dir)
+            .with_context(|| format!("cannot create output folder {}", dir.display()))
+            .map_err(failure)?;
+        write_atomic(&path, bytes).map_err(|e| failure(anyhow!(e)))?;
     }
     Ok(())
 }

@@ -1,6 +1,7 @@
-//! Writers for generated scenes: glTF/GLB, the plan picture, and atomic file output.
+//! Writers for generated scenes: glTF/GLB, OBJ, the plan picture, and atomic file output.
 
 pub mod gltf;
+pub mod obj;
 pub mod plan;
 
 use std::io::Write;
