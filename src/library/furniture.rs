@@ -85,6 +85,8 @@ pub struct FurnitureVariant {
     pub size: SizeRange,
     pub rule: Rule,
     pub mesh: AssetMesh,
+    /// [`AssetMesh::support_top`] of `mesh`, computed once: where objects `on` this one stand.
+    pub support_top: Option<(f32, glam::Vec2, glam::Vec2)>,
     /// Whether the OBJ carried normals and UVs (else they were computed).
     pub had_normals: bool,
     pub had_uvs: bool,
@@ -273,6 +275,7 @@ fn parse_class(file: &LibraryFile, all: &[LibraryFile]) -> Result<FurnitureClass
             weight,
             size: SizeRange { width_m, depth_m, height_m },
             rule,
+            support_top: mesh.support_top(),
             mesh,
             had_normals: info.had_normals,
             had_uvs: info.had_uvs,
@@ -318,7 +321,7 @@ pub fn check_room_requests(
             let Some(entry) = furniture.iter().find(|f| f.class == class) else {
                 return Err(at(format!("class '{name}' is not in the furniture library")));
             };
-            if !entry.rooms.iter().any(|r| *r == stem) {
+            if !entry.rooms.contains(&stem) {
                 return Err(at(format!(
                     "class '{name}' does not go in room type '{stem}' (its furniture/{name}/{name}.toml lists rooms: {})",
                     entry.rooms.join(", ")
