@@ -194,7 +194,21 @@ pub fn place_detailed(
                 .cmp(&stage(b.1))
                 .then(nominal_area(b.1).partial_cmp(&nominal_area(a.1)).unwrap_or(std::cmp::Ordering::Equal))
         });
-        for (class, variant, uniform) in items {
+        for (class, mut variant, uniform) in items {
+            // A variant that wants a support the room lacks (a monitor with no table) gives way
+            // to a variant of its class that stands on the floor (a TV), when the class has one.
+            let has_support = |v: &FurnitureVariant| {
+                placed[ctx.first..].iter().any(|p| p.on.is_none() && v.rule.on.contains(&p.class))
+            };
+            if !variant.rule.on.is_empty() && !has_support(variant) {
+                let entry = library.furniture_class(class).expect("checked above");
+                let floor: Vec<&FurnitureVariant> =
+                    entry.variants.iter().filter(|v| v.rule.on.is_empty() && v.weight > 0.0).collect();
+                if !floor.is_empty() {
+                    variant =
+                        floor[crate::library::furniture::weighted_index(&mut rng, floor.iter().map(|v| v.weight))];
+                }
+            }
             let scale = draw_scale(&mut rng, variant, uniform);
             let material_variant = rng.random_range(0..MATERIAL_VARIANTS);
             if let Some(p) = place_one(&mut rng, &ctx, &placed, class, variant, scale) {
