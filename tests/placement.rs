@@ -260,6 +260,14 @@ fn check(
         if (bmin - o.min).abs().max_element() > EPS || (bmax - o.max).abs().max_element() > EPS {
             return Err(format!("{tag}: node box {bmin}..{bmax} != manifest {}..{}", o.min, o.max));
         }
+        // Uniformly scaled classes (balls, plants, lamps) keep their proportions.
+        if lib.furniture_class(o.class).is_some_and(|c| c.uniform_scale) {
+            let m = node.transform;
+            let (sx, sy, sz) = (m.x_axis.length(), m.y_axis.length(), m.z_axis.length());
+            if (sx - sz).abs() > 1e-4 * sz || (sy - sz).abs() > 1e-4 * sz {
+                return Err(format!("{tag}: uniform class scaled by {sx} {sy} {sz}"));
+            }
+        }
         match o.on {
             None => {
                 if o.min.z.abs() > EPS {
@@ -412,4 +420,44 @@ fn generate_places_furniture_by_the_rules() {
         classes.extend(scene.objects.iter().map(|o| o.class));
     }
     assert!(classes.len() >= 3, "classes seen through generate(): {classes:?}");
+}
+
+fn place_and_check(lib: &Library, seed: u64) -> Result<Vec<Object>, String> {
+    let plan = random_plan(seed, lib);
+    let config = GeneratorConfig { seed, ..GeneratorConfig::default() };
+    let mut geometry = Geometry::default();
+    let first = 1 + plan.doors.len() as u32;
+    let placement =
+        placement::place_detailed(&config, &plan, &[], lib, first, &mut MaterialCatalog::new(seed), &mut geometry)
+            .map_err(|e| e.to_string())?;
+    check(lib, &plan, &placement.objects, Some(&placement.placed_by), &geometry, first)?;
+    Ok(placement.objects)
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(64))]
+
+    #[test]
+    fn any_seed_keeps_the_invariants(seed in proptest::prelude::any::<u64>()) {
+        let lib = library();
+        if let Err(e) = place_and_check(&lib, seed) {
+            proptest::prop_assert!(false, "seed {}: {}", seed, e);
+        }
+    }
+
+    #[test]
+    fn class_toml_and_obj_parsers_never_panic(text in "\\PC{0,300}", obj in "(v -?[0-9] -?[0-9] -?[0-9]\n|f [0-9]( [0-9]){2,3}\n|vn 0 0 1\n|usemtl [a-z]{1,6}\n){0,12}") {
+        use scene_gen::library::{LibraryFile, furniture::parse_furniture};
+        let files = vec![
+            LibraryFile { path: "f/toy/toy.toml".into(), bytes: text.into_bytes() },
+            LibraryFile { path: "f/toy/a.obj".into(), bytes: obj.clone().into_bytes() },
+        ];
+        let _ = parse_furniture(&files);
+        let good = "rooms = []\nplace = \"center\"\nuniform_scale = true\nheight_m = [0.1, 0.2]\n[[variant]]\nobj = \"a\"\n";
+        let files = vec![
+            LibraryFile { path: "f/toy/toy.toml".into(), bytes: good.as_bytes().to_vec() },
+            LibraryFile { path: "f/toy/a.obj".into(), bytes: obj.into_bytes() },
+        ];
+        let _ = parse_furniture(&files);
+    }
 }
