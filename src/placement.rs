@@ -14,10 +14,14 @@
 //!   surface (the largest upward flat area of its mesh: a table top, a mattress) with its
 //!   footprint inside that surface, and is disjoint from the other objects on the same support;
 //! * everything lies inside the room's interior;
-//! * nothing stands in a door's clearance rectangle ([`DOOR_MARGIN_M`], [`DOOR_CLEAR_DEPTH_M`])
-//!   or on the walkway from each door to the room centre ([`WALKWAY_WIDTH_M`]), so an agent can
-//!   walk from any door of a room to any other; objects taller than a window's sill keep out
-//!   of the strip in front of it;
+//! * nothing stands in a door's clearance rectangle ([`DOOR_MARGIN_M`], [`DOOR_CLEAR_DEPTH_M`]);
+//!   objects taller than a window's sill keep out of the strip in front of it;
+//! * walkways: an agent [`WALKWAY_WIDTH_M`] wide can walk from each door of a room to every
+//!   other door of it and into an open area of at least [`MIN_REACHABLE_M2`] (or half the
+//!   walkable floor of the empty room, if less), so the house can be walked through. A
+//!   candidate position that would cut these walks is refused (a flood fill on a
+//!   [`WALK_CELL_M`] grid). Fixed corridors to the room centre were tried first; they left no
+//!   room for a bed in a 3 m x 4 m bedroom with two doors.
 //! * floor objects turn by multiples of 90 degrees, so their AABBs are tight; objects on a
 //!   support may turn freely (their AABB is that of the rotated mesh);
 //! * wall and corner pieces have their back within [`WALL_GAP_M`] of a wall's inner face.
@@ -43,9 +47,13 @@ pub const DOOR_MARGIN_M: f32 = 0.3;
 /// Depth kept free in front of a door, from the wall's inner face. The brief asks for at least
 /// 0.5 m; 1.0 m leaves room to turn through a door.
 pub const DOOR_CLEAR_DEPTH_M: f32 = 1.0;
-/// Width of the walkway kept from each door to the room centre (about a wheelchair-free
-/// passage width of building codes, 0.8 m).
+/// Width of the agent that must be able to walk between the doors of a room (0.8 m: a
+/// common minimum clear passage width in building codes).
 pub const WALKWAY_WIDTH_M: f32 = 0.8;
+/// Open floor an agent must reach from the doors of a room, when the empty room has twice that.
+pub const MIN_REACHABLE_M2: f32 = 2.0;
+/// Grid step of the walkway flood fill.
+pub const WALK_CELL_M: f32 = 0.1;
 /// Gap between a wall piece's back and the wall's inner face.
 pub const WALL_GAP_M: f32 = 0.01;
 /// Smallest gap between two floor objects.
@@ -127,6 +135,8 @@ pub enum PlacedBy {
 pub struct Placement {
     pub objects: Vec<Object>,
     pub placed_by: Vec<PlacedBy>,
+    /// Requests that did not fit: (room id, class), in the order they were tried.
+    pub skipped: Vec<(u32, ObjectClass)>,
 }
 
 /// Places furniture in every room; object instance ids start at `first_instance_id`.
@@ -153,6 +163,7 @@ pub fn place_detailed(
     geometry: &mut Geometry,
 ) -> Result<Placement, PlacementError> {
     let mut placed: Vec<Placed<'_>> = Vec::new();
+    let mut skipped = Vec::new();
     for room in &plan.rooms {
         let room_type = library.rooms.iter().find(|t| t.name == room.room_type).ok_or_else(|| {
             PlacementError::Library(format!(
@@ -163,7 +174,9 @@ pub fn place_detailed(
         let mut rng = rng::substream(config.seed, "placement", u64::from(room.id));
         let zones = keep_out_zones(plan, thresholds, room, config.wall_thickness_m);
         let (lo, hi) = room.interior(config.wall_thickness_m);
-        let ctx = RoomContext { room: room.id, interior: Rect { min: lo, max: hi }, zones, first: placed.len() };
+        let interior = Rect { min: lo, max: hi };
+        let walk = WalkGrid::new(plan, room, interior, config.wall_thickness_m);
+        let mut ctx = RoomContext { room: room.id, interior, zones, first: placed.len(), walk };
 
         // Expand the requests, draw a variant per item, then place supports before what stands
         // on or beside them, biggest floor pieces first.
@@ -211,12 +224,32 @@ pub fn place_detailed(
             }
             let scale = draw_scale(&mut rng, variant, uniform);
             let material_variant = rng.random_range(0..MATERIAL_VARIANTS);
-            if let Some(p) = place_one(&mut rng, &ctx, &placed, class, variant, scale) {
-                placed.push(Placed { material_variant, ..p });
+            let mut result = place_one(&mut rng, &ctx, &placed, class, variant, scale);
+            if result.is_none() {
+                // One more go with another variant of the class (a single bed where a king
+                // did not fit).
+                let entry = library.furniture_class(class).expect("checked above");
+                let other = &entry.variants
+                    [crate::library::furniture::weighted_index(&mut rng, entry.variants.iter().map(|v| v.weight))];
+                if !std::ptr::eq(other, variant) {
+                    let scale = draw_scale(&mut rng, other, uniform);
+                    result = place_one(&mut rng, &ctx, &placed, class, other, scale);
+                }
+            }
+            match result {
+                Some(p) => {
+                    if let (Some(walk), None) = (ctx.walk.as_mut(), p.on) {
+                        walk.block(&p.footprint());
+                    }
+                    placed.push(Placed { material_variant, ..p });
+                }
+                None => skipped.push((room.id, class)),
             }
         }
     }
-    build_geometry(&placed, first_instance_id, materials, geometry)
+    let mut placement = build_geometry(&placed, first_instance_id, materials, geometry)?;
+    placement.skipped = skipped;
+    Ok(placement)
 }
 
 /// One placed object before geometry is made.
@@ -260,6 +293,135 @@ struct RoomContext {
     zones: Vec<Zone>,
     /// Index in the placed list of this room's first object.
     first: usize,
+    /// `None` for rooms without doors, or whose doors cannot be joined even when empty.
+    walk: Option<WalkGrid>,
+}
+
+/// Where the centre of an agent [`WALKWAY_WIDTH_M`] wide can stand in a room, on a
+/// [`WALK_CELL_M`] grid: not within half that width of a wall or of a floor object.
+#[derive(Clone, Debug)]
+struct WalkGrid {
+    origin: Vec2,
+    width: usize,
+    height: usize,
+    blocked: Vec<bool>,
+    /// Cells just inside each door of the room.
+    entries: Vec<usize>,
+    /// Cells the agent must reach from the doors.
+    needed: usize,
+}
+
+impl WalkGrid {
+    fn new(plan: &Floorplan, room: &Room, interior: Rect, wall_thickness_m: f32) -> Option<WalkGrid> {
+        let radius = WALKWAY_WIDTH_M * 0.5;
+        let size = interior.max - interior.min;
+        let (width, height) = ((size.x / WALK_CELL_M).floor() as usize, (size.y / WALK_CELL_M).floor() as usize);
+        if width == 0 || height == 0 {
+            return None;
+        }
+        let mut grid = WalkGrid {
+            origin: interior.min,
+            width,
+            height,
+            blocked: vec![false; width * height],
+            entries: Vec::new(),
+            needed: 0,
+        };
+        for k in 0..width * height {
+            let p = grid.centre(k);
+            let inner = Rect { min: interior.min + radius, max: interior.max - radius };
+            grid.blocked[k] = !(p.x > inner.min.x && p.x < inner.max.x && p.y > inner.min.y && p.y < inner.max.y);
+        }
+        for door in &plan.doors {
+            let inward = if door.rooms[0] == Some(room.id) {
+                -door.normal
+            } else if door.rooms[1] == Some(room.id) {
+                door.normal
+            } else {
+                continue;
+            };
+            let entry = door.center.truncate() + inward * (wall_thickness_m * 0.5 + radius + 0.05);
+            let k = grid.cell(entry);
+            // The agent squeezes through a door set close to a corner.
+            grid.blocked[k] = false;
+            grid.entries.push(k);
+        }
+        if grid.entries.is_empty() {
+            return None;
+        }
+        let free = grid.blocked.iter().filter(|b| !**b).count();
+        grid.needed = ((MIN_REACHABLE_M2 / (WALK_CELL_M * WALK_CELL_M)) as usize).min(free / 2);
+        grid.walkable(&grid.blocked).then_some(grid)
+    }
+
+    fn centre(&self, k: usize) -> Vec2 {
+        self.origin + Vec2::new((k % self.width) as f32 + 0.5, (k / self.width) as f32 + 0.5) * WALK_CELL_M
+    }
+
+    fn cell(&self, p: Vec2) -> usize {
+        let q = ((p - self.origin) / WALK_CELL_M).floor();
+        let x = q.x.clamp(0.0, self.width as f32 - 1.0) as usize;
+        let y = q.y.clamp(0.0, self.height as f32 - 1.0) as usize;
+        x + y * self.width
+    }
+
+    fn mark(&self, r: &Rect, blocked: &mut [bool]) {
+        let radius = WALKWAY_WIDTH_M * 0.5;
+        let lo = self.cell(r.min - radius);
+        let hi = self.cell(r.max + radius);
+        for y in lo / self.width..=hi / self.width {
+            for x in lo % self.width..=hi % self.width {
+                let k = x + y * self.width;
+                let p = self.centre(k);
+                if p.x > r.min.x - radius && p.x < r.max.x + radius && p.y > r.min.y - radius && p.y < r.max.y + radius
+                {
+                    blocked[k] = true;
+                }
+            }
+        }
+    }
+
+    /// Adds a floor object's footprint.
+    fn block(&mut self, r: &Rect) {
+        let mut blocked = std::mem::take(&mut self.blocked);
+        self.mark(r, &mut blocked);
+        self.blocked = blocked;
+    }
+
+    /// Whether the doors stay joined, and open floor reachable, with `r` added.
+    fn allows(&self, r: &Rect) -> bool {
+        let mut blocked = self.blocked.clone();
+        self.mark(r, &mut blocked);
+        self.walkable(&blocked)
+    }
+
+    fn walkable(&self, blocked: &[bool]) -> bool {
+        let start = self.entries[0];
+        if self.entries.iter().any(|&e| blocked[e]) {
+            return false;
+        }
+        let mut seen = vec![false; blocked.len()];
+        let mut stack = vec![start];
+        seen[start] = true;
+        let mut count = 0;
+        while let Some(k) = stack.pop() {
+            count += 1;
+            let (x, y) = (k % self.width, k / self.width);
+            let next = [
+                (x > 0).then(|| k - 1),
+                (x + 1 < self.width).then(|| k + 1),
+                (y > 0).then(|| k - self.width),
+                (y + 1 < self.height).then(|| k + self.width),
+            ];
+            for n in next.into_iter().flatten() {
+                if !seen[n] && !blocked[n] {
+                    seen[n] = true;
+                    stack.push(n);
+                }
+            }
+        }
+        count >= self.needed && self.entries.iter().all(|&e| seen[e])
+    }
 }
 
 /// A rotation about +Z by `yaw_deg`, exact (no rounding noise) at multiples of 90 degrees so
@@ -306,12 +468,10 @@ fn draw_scale(rng: &mut ChaCha8Rng, variant: &FurnitureVariant, uniform: bool) -
     }
 }
 
-/// The rectangles kept free in `room`: door clearances, walkways from each door to the room
-/// centre, thresholds, and (for objects above the sill) strips in front of windows.
+/// The rectangles kept free in `room`: door clearances, thresholds, and (for objects above the sill) strips in front of windows.
 #[must_use]
 pub fn keep_out_zones(plan: &Floorplan, thresholds: &[Threshold], room: &Room, wall_thickness_m: f32) -> Vec<Zone> {
     let mut zones = Vec::new();
-    let centre = room.center();
     let face = wall_thickness_m * 0.5;
     // A rectangle spanned from `origin` by `tangent` (lateral range) and `inward` (depth range).
     let span = |origin: Vec2, tangent: Vec2, inward: Vec2, lateral: [f32; 2], depth: [f32; 2]| {
@@ -333,15 +493,6 @@ pub fn keep_out_zones(plan: &Floorplan, thresholds: &[Threshold], room: &Room, w
         let half = door.width_m * 0.5 + DOOR_MARGIN_M;
         zones.push(Zone {
             rect: span(c, tangent, inward, [-half, half], [0.0, face + DOOR_CLEAR_DEPTH_M]),
-            above_m: -1.0,
-        });
-        // The walkway: straight in to the depth of the room centre, then across to it.
-        let w = WALKWAY_WIDTH_M * 0.5;
-        let depth = (centre - c).dot(inward).max(0.0);
-        let lateral = (centre - c).dot(tangent);
-        zones.push(Zone { rect: span(c, tangent, inward, [-w, w], [0.0, depth + w]), above_m: -1.0 });
-        zones.push(Zone {
-            rect: span(c, tangent, inward, [lateral.min(0.0) - w, lateral.max(0.0) + w], [depth - w, depth + w]),
             above_m: -1.0,
         });
     }
@@ -453,7 +604,8 @@ fn place_one<'a>(
                 let yaw = [0.0, 90.0, 180.0, 270.0][side as usize];
                 let (lo, hi) = local_bounds(variant, scale, yaw);
                 let r = ctx.interior;
-                let corner = *place == Place::Corner;
+                // Wall pieces also try the ends of the wall now and then: it packs small rooms.
+                let corner = *place == Place::Corner || attempt % 3 == 2;
                 let end = rng.random_bool(0.5);
                 let along = |rng: &mut ChaCha8Rng, min: f32, max: f32, l: f32, h: f32| {
                     if corner {
@@ -470,7 +622,7 @@ fn place_one<'a>(
                 };
                 let Some(t) = t else { continue };
                 let t = t.extend(0.0);
-                let by = if corner { PlacedBy::Corner } else { PlacedBy::Wall };
+                let by = if *place == Place::Corner { PlacedBy::Corner } else { PlacedBy::Wall };
                 Placed { yaw_deg: yaw, translation: t, min: lo + t, max: hi + t, by, ..base }
             }
             Place::Center => {
@@ -508,6 +660,7 @@ fn fits_on_floor(ctx: &RoomContext, room_objects: &[Placed<'_>], c: &Placed<'_>)
     ctx.interior.contains(&fp, 1e-4)
         && !ctx.zones.iter().any(|z| c.max.z > z.above_m && z.rect.overlaps(&fp, 0.0))
         && !room_objects.iter().any(|p| p.on.is_none() && p.footprint().overlaps(&fp, MIN_GAP_M))
+        && ctx.walk.as_ref().is_none_or(|w| w.allows(&fp))
 }
 
 /// Adds meshes (one per asset and colour variant, shared by instances), nodes and manifest
