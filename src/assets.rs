@@ -76,40 +76,89 @@ impl AssetMesh {
         self.parts.iter().map(|p| p.indices.len() / 3).sum()
     }
 
-    /// The largest upward-facing flat area (a table top, a mattress): its height and the
-    /// footprint rectangle of those faces, shrunk by 10 % on each side so round tops keep
-    /// objects off their rim. `None` when the mesh has no horizontal upward faces.
+    /// The top surface other objects may stand on (a table top, the uncovered part of a
+    /// mattress): the flat upward-facing area seen from above that covers the most floor,
+    /// as its height and the largest rectangle of it found by shrinking its bounding box.
+    /// `None` when no flat upward face is visible from above.
+    ///
+    /// Seen from above matters: a bed frame's top is larger than its mattress but lies under
+    /// it, and pillows cover part of the mattress.
     #[must_use]
     pub fn support_top(&self) -> Option<(f32, Vec2, Vec2)> {
-        // Heights are bucketed to the centimetre; BTreeMap keeps the choice deterministic.
-        let mut by_height: BTreeMap<i64, (f32, f32, Vec2, Vec2)> = BTreeMap::new();
+        const N: usize = 40;
+        let (lo, size) = (self.min.truncate(), (self.max - self.min).truncate());
+        let step = size / N as f32;
+        // Per cell: height of the highest geometry over the cell centre, and the centimetre
+        // bucket of that height when it comes from a flat upward face.
+        let mut top: Vec<(f32, Option<i64>)> = vec![(f32::MIN, None); N * N];
         for part in &self.parts {
             for t in part.indices.chunks_exact(3) {
                 let [a, b, c] = [0, 1, 2].map(|k| part.positions[t[k] as usize]);
                 let n = (b - a).cross(c - a);
-                let area = n.length() * 0.5;
-                if area <= 1e-8 || n.z / (2.0 * area) < 0.99 {
+                let projected = n.z * 0.5;
+                if projected.abs() < 1e-10 {
                     continue;
                 }
-                let z = (a.z + b.z + c.z) / 3.0;
-                let entry = by_height.entry((z * 100.0).round() as i64).or_insert((0.0, z, Vec2::MAX, Vec2::MIN));
-                entry.0 += area;
-                for p in [a, b, c] {
-                    entry.2 = entry.2.min(p.truncate());
-                    entry.3 = entry.3.max(p.truncate());
+                let flat_up = n.z > 0.0 && n.z >= 0.99 * n.length();
+                let z = if flat_up { (a.z + b.z + c.z) / 3.0 } else { a.z.max(b.z).max(c.z) };
+                let bucket = flat_up.then(|| (z * 100.0).round() as i64);
+                let (tmin, tmax) = (
+                    a.truncate().min(b.truncate()).min(c.truncate()),
+                    a.truncate().max(b.truncate()).max(c.truncate()),
+                );
+                let cell_range = |lo_v: f32, hi_v: f32, origin: f32, d: f32| {
+                    let i0 = (((lo_v - origin) / d).floor().max(0.0) as usize).min(N - 1);
+                    let i1 = (((hi_v - origin) / d).floor().max(0.0) as usize).min(N - 1);
+                    i0..=i1
+                };
+                for j in cell_range(tmin.y, tmax.y, lo.y, step.y) {
+                    for i in cell_range(tmin.x, tmax.x, lo.x, step.x) {
+                        let p = lo + Vec2::new(i as f32 + 0.5, j as f32 + 0.5) * step;
+                        let edge = |u: Vec3, v: Vec3| (v.x - u.x) * (p.y - u.y) - (v.y - u.y) * (p.x - u.x);
+                        let (e0, e1, e2) = (edge(a, b), edge(b, c), edge(c, a));
+                        let inside = (e0 >= 0.0 && e1 >= 0.0 && e2 >= 0.0) || (e0 <= 0.0 && e1 <= 0.0 && e2 <= 0.0);
+                        let cell = &mut top[i + j * N];
+                        if inside && (z > cell.0 + 1e-4 || (flat_up && z > cell.0 - 1e-4 && cell.1.is_none())) {
+                            *cell = (z, bucket);
+                        }
+                    }
                 }
             }
         }
-        let mut best: Option<(f32, f32, Vec2, Vec2)> = None;
-        for v in by_height.into_values() {
-            if best.is_none_or(|b| v.0 > b.0 * 1.0001) {
-                best = Some(v);
+        let mut counts: BTreeMap<i64, usize> = BTreeMap::new();
+        for b in top.iter().filter_map(|c| c.1) {
+            *counts.entry(b).or_default() += 1;
+        }
+        // Most cells wins; among equals the higher surface (BTreeMap order, last max).
+        let (&bucket, _) = counts.iter().max_by_key(|(b, n)| (**n, **b))?;
+        // The largest rectangle of cells all on that surface: per row, column heights of the
+        // run of surface cells ending there, then every histogram span (N is small).
+        let mut heights = [0_usize; N];
+        let mut best = (0, 0, 0, 0, 0); // (area, i0, i1, j0, j1)
+        for j in 0..N {
+            for (i, h) in heights.iter_mut().enumerate() {
+                *h = if top[i + j * N].1 == Some(bucket) { *h + 1 } else { 0 };
+            }
+            for i0 in 0..N {
+                let mut h = usize::MAX;
+                for i1 in i0..N {
+                    h = h.min(heights[i1]);
+                    if h == 0 {
+                        break;
+                    }
+                    let area = h * (i1 - i0 + 1);
+                    if area > best.0 {
+                        best = (area, i0, i1, j + 1 - h, j);
+                    }
+                }
             }
         }
-        best.map(|(_, z, lo, hi)| {
-            let inset = (hi - lo) * 0.1;
-            (z, lo + inset, hi - inset)
-        })
+        let (area, i0, i1, j0, j1) = best;
+        if area == 0 {
+            return None;
+        }
+        let z = top[i0 + j0 * N].0;
+        Some((z, lo + Vec2::new(i0 as f32, j0 as f32) * step, lo + Vec2::new((i1 + 1) as f32, (j1 + 1) as f32) * step))
     }
 
     /// The [`Mesh`] of this asset; `material` maps each part's surface to an index into
@@ -284,5 +333,39 @@ mod tests {
         assert_eq!(mesh.parts.len(), 1);
         let bad = file("lib/x/bad.obj", "v 0 0 0\nf 1 2 3\n");
         assert!(load_obj(&bad, &[], UpAxis::Z, |_| "metal".into()).is_err());
+    }
+}
+
+#[cfg(test)]
+mod support_tests {
+    use super::*;
+
+    /// A closed box as one part (12 outward triangles).
+    fn boxed(parts: &mut AssetPart, min: Vec3, max: Vec3) {
+        let c = |i: usize| Vec3::new([min.x, max.x][i & 1], [min.y, max.y][(i >> 1) & 1], [min.z, max.z][i >> 2]);
+        let base = parts.positions.len() as u32;
+        for i in 0..8 {
+            parts.positions.push(c(i));
+            parts.normals.push(Vec3::Z);
+            parts.uvs.push(Vec2::ZERO);
+        }
+        let quads = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
+        for [a, b, c, d] in quads {
+            parts.indices.extend([a, b, c, a, c, d].map(|k| base + k));
+        }
+    }
+
+    #[test]
+    fn support_top_is_the_visible_mattress_not_the_frame_under_it() {
+        let mut part = AssetPart { surface: "wood".into(), ..AssetPart::default() };
+        boxed(&mut part, Vec3::new(-1.0, -1.0, 0.0), Vec3::new(1.0, 1.0, 0.3)); // frame
+        boxed(&mut part, Vec3::new(-0.9, -0.9, 0.3), Vec3::new(0.9, 0.9, 0.5)); // mattress
+        boxed(&mut part, Vec3::new(-0.8, -0.9, 0.5), Vec3::new(0.8, -0.5, 0.6)); // pillow
+        let mesh = AssetMesh { parts: vec![part], min: Vec3::new(-1.0, -1.0, 0.0), max: Vec3::new(1.0, 1.0, 0.6) };
+        let (z, lo, hi) = mesh.support_top().unwrap();
+        assert!((z - 0.5).abs() < 1e-6, "top at {z}");
+        assert!(lo.y >= -0.5 - 1e-6, "the rectangle reaches under the pillow: {lo} {hi}");
+        assert!(lo.x >= -0.9 - 1e-6 && hi.x <= 0.9 + 1e-6 && hi.y <= 0.9 + 1e-6, "{lo} {hi}");
+        assert!(hi.y - lo.y > 1.2 && hi.x - lo.x > 1.6, "{lo} {hi}");
     }
 }

@@ -21,7 +21,8 @@ mod generate_furniture;
 const WALL_M: f32 = 0.1;
 
 fn library() -> Library {
-    Library::embedded().expect("embedded library loads")
+    static LIBRARY: std::sync::OnceLock<Library> = std::sync::OnceLock::new();
+    LIBRARY.get_or_init(|| Library::embedded().expect("embedded library loads")).clone()
 }
 
 #[test]
@@ -40,6 +41,24 @@ fn library_has_three_variants_with_normals_and_uvs_per_class() {
                 assert!(part.normals.iter().all(|n| (n.length() - 1.0).abs() < 1e-3));
             }
         }
+    }
+}
+
+#[test]
+fn supports_offer_their_real_top() {
+    let lib = library();
+    for v in &lib.furniture_class(ObjectClass::Table).unwrap().variants {
+        let (z, lo, hi) = v.support_top.unwrap_or_else(|| panic!("{} has no top", v.name));
+        assert!((z - v.mesh.max.z).abs() < 0.01, "{}: top at {z}, mesh up to {}", v.name, v.mesh.max.z);
+        let area = (hi - lo).x * (hi - lo).y;
+        assert!(area > 0.3 * v.mesh.size().x * v.mesh.size().y, "{}: top {lo}..{hi}", v.name);
+    }
+    for v in &lib.furniture_class(ObjectClass::Bed).unwrap().variants {
+        // The uncovered mattress (0.52 m in the generator), not the frame under it (0.30 m)
+        // nor the headboard.
+        let (z, lo, hi) = v.support_top.unwrap_or_else(|| panic!("{} has no top", v.name));
+        assert!((z - 0.52).abs() < 0.01, "{}: top at {z}", v.name);
+        assert!(hi.y - lo.y > 0.8 && hi.x - lo.x > 0.6, "{}: top {lo}..{hi}", v.name);
     }
 }
 
