@@ -141,8 +141,8 @@ impl AssetMesh {
             }
             for i0 in 0..N {
                 let mut h = usize::MAX;
-                for i1 in i0..N {
-                    h = h.min(heights[i1]);
+                for (i1, &column) in heights.iter().enumerate().skip(i0) {
+                    h = h.min(column);
                     if h == 0 {
                         break;
                     }
