@@ -322,9 +322,10 @@ pub fn check_room_requests(
                 return Err(at(format!("class '{name}' is not in the furniture library")));
             };
             if !entry.rooms.contains(&stem) {
+                let rooms = if entry.rooms.is_empty() { "none".to_string() } else { entry.rooms.join(", ") };
                 return Err(at(format!(
-                    "class '{name}' does not go in room type '{stem}' (its furniture/{name}/{name}.toml lists rooms: {})",
-                    entry.rooms.join(", ")
+                    "class '{name}' does not go in room type '{stem}': add it to `rooms` in {name}/{name}.toml \
+                     of the furniture library (now: {rooms})"
                 )));
             }
         }
@@ -403,6 +404,24 @@ mod tests {
         let text = GOOD.replace("width_m = [1, 2]", "width_m = [2, 1]");
         let err = parse_furniture(&lib(&[("f/bed/bed.toml", &text), ("f/bed/a.obj", BOX_OBJ)])).unwrap_err();
         assert_eq!(err.line, Some(3), "{err}");
+    }
+
+    #[test]
+    fn user_meshes_y_up_with_foreign_material_names() {
+        let toml = "rooms = [\"bedroom\"]\nplace = \"center\"\nuniform_scale = true\nheight_m = [1, 1]\n\
+                    up = \"y\"\ndefault_surface = \"metal\"\nsurfaces = { \"Oak.001\" = \"wood\" }\n\n[[variant]]\nobj = \"a\"\n";
+        let obj = "mtllib a.mtl\nv 0 0 0\nv 1 0 0\nv 1 2 0\nv 0 2 1\nusemtl Oak.001\nf 1 2 3\nusemtl Chrome\nf 1 3 4\n";
+        let mtl = "newmtl Oak.001\nKd 1 1 1\nnewmtl Chrome\nKd 1 1 1\n";
+        let files = lib(&[("f/toy/toy.toml", toml), ("f/toy/a.obj", obj), ("f/toy/a.mtl", mtl)]);
+        let classes = parse_furniture(&files).unwrap();
+        let v = &classes[0].variants[0];
+        let surfaces: Vec<_> = v.mesh.parts.iter().map(|p| p.surface.as_str()).collect();
+        assert_eq!(surfaces, ["wood", "metal"]);
+        // Y up: the 2 m extent along OBJ y becomes the height.
+        assert!((v.mesh.size().z - 2.0).abs() < 1e-6, "{:?}", v.mesh.size());
+        let bad = toml.replace("\"wood\"", "\"oak\"");
+        let err = parse_furniture(&lib(&[("f/toy/toy.toml", &bad), ("f/toy/a.obj", obj)])).unwrap_err();
+        assert_eq!(err.line, Some(7), "{err}");
     }
 
     #[test]
