@@ -13,6 +13,7 @@
 //! * [`library`]: the room-type and furniture libraries (embedded, or folders at run time).
 //! * [`generate`]: runs the stages in order and returns a [`scene::Scene`].
 //! * [`floorplan`], [`structure`], [`placement`], [`decor`], [`lights`]: the stages.
+//! * [`assets`]: furniture OBJ meshes (read with tobj) turned into scene meshes.
 //! * [`materials`]: named surfaces to PBR materials with seeded procedural textures.
 //! * [`scene`]: the hub type; [`manifest`]: its `scene.json` form.
 //! * [`export`]: glTF/GLB, the plan picture, atomic writes.
@@ -25,6 +26,7 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+pub mod assets;
 pub mod config;
 pub mod decor;
 pub mod export;

@@ -128,6 +128,7 @@ impl Library {
         let furniture_files = list_files(furniture, &EMBEDDED_FURNITURE, "furniture")?;
         let rooms = rooms::parse_room_types(&room_files)?;
         let furniture = furniture::parse_furniture(&furniture_files)?;
+        furniture::check_room_requests(&room_files, &rooms, &furniture)?;
         Ok(Library { rooms, furniture })
     }
 

@@ -1,0 +1,505 @@
+//! Furniture library and placement invariants, over hundreds of seeds, on hand-built floorplans
+//! (several rooms, doors between them, exterior doors, windows) and through `generate()`.
+
+use std::collections::{BTreeSet, VecDeque};
+
+use glam::{Vec2, Vec3};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use scene_gen::config::GeneratorConfig;
+use scene_gen::floorplan::Floorplan;
+use scene_gen::generate::generate;
+use scene_gen::library::Library;
+use scene_gen::materials::MaterialCatalog;
+use scene_gen::placement::{self, PlacedBy};
+use scene_gen::scene::{Door, Geometry, Object, ObjectClass, Room, Semantic, Window};
+
+#[allow(dead_code)]
+#[path = "../examples/generate_furniture.rs"]
+mod generate_furniture;
+
+const WALL_M: f32 = 0.1;
+
+fn library() -> Library {
+    static LIBRARY: std::sync::OnceLock<Library> = std::sync::OnceLock::new();
+    LIBRARY.get_or_init(|| Library::embedded().expect("embedded library loads")).clone()
+}
+
+#[test]
+fn library_has_three_variants_with_normals_and_uvs_per_class() {
+    let lib = library();
+    for class in ObjectClass::ALL {
+        let entry = lib.furniture_class(class).unwrap_or_else(|| panic!("no class {class}"));
+        assert!(entry.variants.len() >= 3, "{class}: {} variants", entry.variants.len());
+        for v in &entry.variants {
+            assert!(v.had_normals && v.had_uvs, "{class}/{}: normals {} uvs {}", v.name, v.had_normals, v.had_uvs);
+            let tris = v.mesh.triangle_count();
+            assert!((12..=500).contains(&tris), "{class}/{}: {tris} triangles is not low-poly", v.name);
+            assert!(v.mesh.min.z.abs() < 1e-6 && (v.mesh.min.x + v.mesh.max.x).abs() < 1e-4);
+            for part in &v.mesh.parts {
+                assert!(MaterialCatalog::is_surface(&part.surface), "{class}/{}: {}", v.name, part.surface);
+                assert!(part.normals.iter().all(|n| (n.length() - 1.0).abs() < 1e-3));
+            }
+        }
+    }
+}
+
+#[test]
+fn supports_offer_their_real_top() {
+    let lib = library();
+    for v in &lib.furniture_class(ObjectClass::Table).unwrap().variants {
+        let (z, lo, hi) = v.support_top.unwrap_or_else(|| panic!("{} has no top", v.name));
+        assert!((z - v.mesh.max.z).abs() < 0.01, "{}: top at {z}, mesh up to {}", v.name, v.mesh.max.z);
+        let area = (hi - lo).x * (hi - lo).y;
+        assert!(area > 0.3 * v.mesh.size().x * v.mesh.size().y, "{}: top {lo}..{hi}", v.name);
+    }
+    for v in &lib.furniture_class(ObjectClass::Bed).unwrap().variants {
+        // The uncovered mattress (0.52 m in the generator), not the frame under it (0.30 m)
+        // nor the headboard.
+        let (z, lo, hi) = v.support_top.unwrap_or_else(|| panic!("{} has no top", v.name));
+        assert!((z - 0.52).abs() < 0.01, "{}: top at {z}", v.name);
+        assert!(hi.y - lo.y > 0.8 && hi.x - lo.x > 0.6, "{}: top {lo}..{hi}", v.name);
+    }
+}
+
+#[test]
+fn generator_reproduces_committed_files() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("furniture");
+    let generated = generate_furniture::generated_files();
+    for (path, text) in &generated {
+        let committed = std::fs::read_to_string(root.join(path)).unwrap_or_else(|e| panic!("{path}: {e}"));
+        assert!(committed == *text, "furniture/{path} differs from the generator's output: run the example");
+    }
+    // Every committed mesh is one the generator writes.
+    for dir in std::fs::read_dir(&root).unwrap() {
+        let dir = dir.unwrap().path();
+        if !dir.is_dir() {
+            continue;
+        }
+        for f in std::fs::read_dir(&dir).unwrap() {
+            let f = f.unwrap().path();
+            if f.extension().is_some_and(|e| e == "obj" || e == "mtl") {
+                let rel = f.strip_prefix(&root).unwrap().to_string_lossy().replace('\\', "/");
+                assert!(generated.iter().any(|(p, _)| *p == rel), "{rel} is not generated");
+            }
+        }
+    }
+}
+
+/// A grid house of `nx` x `ny` rectangular rooms with random splits, a door between every
+/// pair of neighbours at a random position, an exterior door and windows on the north side.
+fn random_plan(seed: u64, lib: &Library) -> Floorplan {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let (nx, ny) = (rng.random_range(1..=3_usize), rng.random_range(1..=2_usize));
+    let mut axis = |n: usize| {
+        let mut v = vec![0.0_f32];
+        for _ in 0..n {
+            let last = *v.last().unwrap();
+            v.push(last + rng.random_range(2.6_f32..6.5));
+        }
+        v
+    };
+    let (xs, ys) = (axis(nx), axis(ny));
+    let id = |i: usize, j: usize| (j * nx + i) as u32;
+    let mut plan = Floorplan::default();
+    for j in 0..ny {
+        for i in 0..nx {
+            let t = &lib.rooms[rng.random_range(0..lib.rooms.len())];
+            plan.rooms.push(Room {
+                id: id(i, j),
+                room_type: t.name.clone(),
+                min: Vec2::new(xs[i], ys[j]),
+                max: Vec2::new(xs[i + 1], ys[j + 1]),
+            });
+        }
+    }
+    let mut door = |rng: &mut ChaCha8Rng, a: u32, b: Option<u32>, at: Vec2, normal: Vec2| {
+        let width_m = rng.random_range(0.8_f32..1.0);
+        let n = plan.doors.len() as u32;
+        plan.doors.push(Door {
+            id: n,
+            rooms: [Some(a), b],
+            wall: 0,
+            center: at.extend(1.0),
+            width_m,
+            height_m: 2.0,
+            normal,
+        });
+    };
+    let along = |rng: &mut ChaCha8Rng, lo: f32, hi: f32| rng.random_range(lo + 0.6..hi - 0.6);
+    for j in 0..ny {
+        for i in 0..nx {
+            if i + 1 < nx {
+                let y = along(&mut rng, ys[j], ys[j + 1]);
+                door(&mut rng, id(i, j), Some(id(i + 1, j)), Vec2::new(xs[i + 1], y), Vec2::X);
+            }
+            if j + 1 < ny {
+                let x = along(&mut rng, xs[i], xs[i + 1]);
+                door(&mut rng, id(i, j), Some(id(i, j + 1)), Vec2::new(x, ys[j + 1]), Vec2::Y);
+            }
+        }
+    }
+    let x = along(&mut rng, xs[0], xs[1]);
+    door(&mut rng, id(0, 0), None, Vec2::new(x, 0.0), Vec2::NEG_Y);
+    // An exterior door on the west side of the top-left room too, when there are two rows.
+    if ny > 1 {
+        let y = along(&mut rng, ys[ny - 1], ys[ny]);
+        door(&mut rng, id(0, ny - 1), None, Vec2::new(0.0, y), Vec2::NEG_X);
+    }
+    for i in 0..nx {
+        if rng.random_bool(0.7) {
+            let width_m = rng.random_range(0.8_f32..1.6).min(xs[i + 1] - xs[i] - 0.4);
+            let x = rng.random_range(xs[i] + 0.2 + width_m / 2.0..=xs[i + 1] - 0.2 - width_m / 2.0);
+            let n = plan.windows.len() as u32;
+            plan.windows.push(Window {
+                id: n,
+                room: id(i, ny - 1),
+                wall: 0,
+                center: Vec3::new(x, ys[ny], 1.5),
+                width_m,
+                height_m: 1.2,
+                normal: Vec2::Y,
+            });
+        }
+    }
+    plan
+}
+
+fn overlap_area(a: &Object, b: &Object) -> f32 {
+    let w = (a.max.x.min(b.max.x) - a.min.x.max(b.min.x)).max(0.0);
+    let h = (a.max.y.min(b.max.y) - a.min.y.max(b.min.y)).max(0.0);
+    w * h
+}
+
+fn rect_hits(obj: &Object, min: Vec2, max: Vec2) -> bool {
+    obj.min.x < max.x - 1e-4 && min.x < obj.max.x - 1e-4 && obj.min.y < max.y - 1e-4 && min.y < obj.max.y - 1e-4
+}
+
+/// A door-relative rectangle: `lateral` along the wall, `depth` into `room` from the wall
+/// centre line.
+fn door_rect(door: &Door, inward: Vec2, lateral: f32, depth: f32) -> (Vec2, Vec2) {
+    let c = door.center.truncate();
+    let t = Vec2::new(-inward.y, inward.x);
+    let pts = [c + t * lateral, c - t * lateral, c + t * lateral + inward * depth, c - t * lateral + inward * depth];
+    (pts.iter().fold(Vec2::MAX, |a, p| a.min(*p)), pts.iter().fold(Vec2::MIN, |a, p| a.max(*p)))
+}
+
+fn inward(door: &Door, room: u32) -> Option<Vec2> {
+    if door.rooms[0] == Some(room) {
+        Some(-door.normal)
+    } else if door.rooms[1] == Some(room) {
+        Some(door.normal)
+    } else {
+        None
+    }
+}
+
+/// True when an agent 0.6 m wide (a 0.3 m box around its centre, on a 5 cm grid) can walk
+/// between every pair of doors of the room and reach open floor (1.5 m^2, or less in a tiny
+/// room). Placement keeps 0.8 m passages; the narrower agent leaves room for grid rounding.
+fn doors_connected(plan: &Floorplan, room: &Room, objects: &[Object]) -> Result<(), String> {
+    const CELL: f32 = 0.05;
+    const RADIUS: f32 = 0.3;
+    let (lo, hi) = room.interior(WALL_M);
+    let (w, h) = (((hi.x - lo.x) / CELL) as usize, ((hi.y - lo.y) / CELL) as usize);
+    let blocked: Vec<bool> = (0..w * h)
+        .map(|k| {
+            let p = lo + Vec2::new((k % w) as f32 + 0.5, (k / w) as f32 + 0.5) * CELL;
+            objects.iter().any(|o| {
+                p.x > o.min.x - RADIUS && p.x < o.max.x + RADIUS && p.y > o.min.y - RADIUS && p.y < o.max.y + RADIUS
+            })
+        })
+        .collect();
+    let cell = |p: Vec2| {
+        let q = ((p - lo) / CELL).floor();
+        (q.x.clamp(0.0, w as f32 - 1.0) as usize) + (q.y.clamp(0.0, h as f32 - 1.0) as usize) * w
+    };
+    let entries: Vec<(u32, usize)> = plan
+        .doors
+        .iter()
+        .filter_map(|d| {
+            inward(d, room.id).map(|n| (d.id, cell(d.center.truncate() + n * (WALL_M * 0.5 + RADIUS + 0.05))))
+        })
+        .collect();
+    let Some(&(_, start)) = entries.first() else { return Ok(()) };
+    if blocked[start] {
+        return Err(format!("room {}: a door entry is blocked", room.id));
+    }
+    let mut seen = vec![false; w * h];
+    let mut queue = VecDeque::from([start]);
+    seen[start] = true;
+    let mut reached = 0;
+    while let Some(k) = queue.pop_front() {
+        reached += 1;
+        let (x, y) = (k % w, k / w);
+        let nbrs =
+            [(x > 0).then(|| k - 1), (x + 1 < w).then(|| k + 1), (y > 0).then(|| k - w), (y + 1 < h).then(|| k + w)];
+        for n in nbrs.into_iter().flatten() {
+            if !seen[n] && !blocked[n] {
+                seen[n] = true;
+                queue.push_back(n);
+            }
+        }
+    }
+    if let Some((door, _)) = entries.iter().find(|(_, e)| !seen[*e]) {
+        return Err(format!("room {}: door {door} cannot be reached from door {}", room.id, entries[0].0));
+    }
+    let open_m2 = reached as f32 * CELL * CELL;
+    let size = hi - lo;
+    let want = (1.5_f32).min(0.45 * (size.x - 0.8) * (size.y - 0.8));
+    if open_m2 < want {
+        return Err(format!("room {}: only {open_m2} m^2 reachable from the doors", room.id));
+    }
+    Ok(())
+}
+
+/// Checks every placement invariant of one furnished plan; `placed_by` when known.
+fn check(
+    lib: &Library,
+    plan: &Floorplan,
+    objects: &[Object],
+    placed_by: Option<&[PlacedBy]>,
+    geometry: &Geometry,
+    first_instance_id: u32,
+) -> Result<(), String> {
+    const EPS: f32 = 1e-3;
+    for (i, o) in objects.iter().enumerate() {
+        let tag = format!("object {} ({}, {})", o.id, o.asset, o.class);
+        if o.id != i as u32 || o.instance_id != first_instance_id + i as u32 {
+            return Err(format!("{tag}: ids not consecutive"));
+        }
+        let room = plan.rooms.iter().find(|r| r.id == o.room).ok_or(format!("{tag}: no room"))?;
+        let (lo, hi) = room.interior(WALL_M);
+        if o.min.x < lo.x - EPS || o.min.y < lo.y - EPS || o.max.x > hi.x + EPS || o.max.y > hi.y + EPS {
+            return Err(format!("{tag}: outside the interior of room {}", room.id));
+        }
+        // Node transform reproduces the manifest box.
+        let node = geometry
+            .nodes
+            .iter()
+            .find(|n| n.semantic == Semantic::Object { id: o.id })
+            .ok_or(format!("{tag}: no node"))?;
+        if node.name != format!("{}_{}", o.class, o.id) {
+            return Err(format!("{tag}: node name {}", node.name));
+        }
+        let (mut bmin, mut bmax) = (Vec3::MAX, Vec3::MIN);
+        for p in geometry.meshes[node.mesh].primitives.iter().flat_map(|p| &p.positions) {
+            let q = node.transform.transform_point3(*p);
+            bmin = bmin.min(q);
+            bmax = bmax.max(q);
+        }
+        if (bmin - o.min).abs().max_element() > EPS || (bmax - o.max).abs().max_element() > EPS {
+            return Err(format!("{tag}: node box {bmin}..{bmax} != manifest {}..{}", o.min, o.max));
+        }
+        // Uniformly scaled classes (balls, plants, lamps) keep their proportions.
+        if lib.furniture_class(o.class).is_some_and(|c| c.uniform_scale) {
+            let m = node.transform;
+            let (sx, sy, sz) = (m.x_axis.length(), m.y_axis.length(), m.z_axis.length());
+            if (sx - sz).abs() > 1e-4 * sz || (sy - sz).abs() > 1e-4 * sz {
+                return Err(format!("{tag}: uniform class scaled by {sx} {sy} {sz}"));
+            }
+        }
+        match o.on {
+            None => {
+                if o.min.z.abs() > EPS {
+                    return Err(format!("{tag}: floor object floats at {}", o.min.z));
+                }
+                if (o.yaw_deg / 90.0).fract().abs() > 1e-6 {
+                    return Err(format!("{tag}: floor object yaw {}", o.yaw_deg));
+                }
+            }
+            Some(s) => {
+                let sup = &objects[s as usize];
+                let class = lib.furniture_class(sup.class).unwrap();
+                let stem = sup.asset.split('/').nth(1).unwrap();
+                let variant = class.variants.iter().find(|v| v.name == stem).unwrap();
+                let (top_z, _, _) = variant.support_top.ok_or(format!("{tag}: support has no top"))?;
+                let sup_node = geometry.nodes.iter().find(|n| n.semantic == Semantic::Object { id: s }).unwrap();
+                let z = sup_node.transform.transform_point3(Vec3::new(0.0, 0.0, top_z)).z;
+                if (o.min.z - z).abs() > EPS || o.min.z > sup.max.z + EPS || sup.on.is_some() || sup.room != o.room {
+                    return Err(format!("{tag}: does not rest on {} (z {} vs top {z})", sup.asset, o.min.z));
+                }
+                if o.min.x < sup.min.x - EPS
+                    || o.min.y < sup.min.y - EPS
+                    || o.max.x > sup.max.x + EPS
+                    || o.max.y > sup.max.y + EPS
+                {
+                    return Err(format!("{tag}: footprint outside its support {}", sup.asset));
+                }
+            }
+        }
+        for other in &objects[..i] {
+            if o.on == Some(other.id) || other.on == Some(o.id) {
+                continue;
+            }
+            if overlap_area(o, other) > 1e-6 {
+                return Err(format!("{tag} intersects object {} ({})", other.id, other.asset));
+            }
+        }
+        for door in &plan.doors {
+            let Some(inward) = inward(door, o.room) else { continue };
+            let (a, b) = door_rect(door, inward, door.width_m * 0.5 + 0.25, WALL_M * 0.5 + 0.9);
+            if rect_hits(o, a, b) {
+                return Err(format!("{tag}: in front of door {}", door.id));
+            }
+        }
+        for window in plan.windows.iter().filter(|w| w.room == o.room) {
+            let sill = window.center.z - window.height_m * 0.5;
+            let fake = Door {
+                id: 0,
+                rooms: [Some(o.room), None],
+                wall: 0,
+                center: window.center,
+                width_m: window.width_m,
+                height_m: 0.0,
+                normal: window.normal,
+            };
+            let (a, b) = door_rect(&fake, -window.normal, window.width_m * 0.5, WALL_M * 0.5 + 0.25);
+            if o.max.z > sill + EPS && rect_hits(o, a, b) {
+                return Err(format!("{tag}: taller than the sill in front of window {}", window.id));
+            }
+        }
+        if let Some(by) = placed_by {
+            if matches!(by[i], PlacedBy::Wall | PlacedBy::Corner) {
+                let gap = match (o.yaw_deg.round() as i32).rem_euclid(360) {
+                    0 => o.min.y - lo.y,
+                    90 => hi.x - o.max.x,
+                    180 => hi.y - o.max.y,
+                    _ => o.min.x - lo.x,
+                };
+                if !(-EPS..=0.05).contains(&gap) {
+                    return Err(format!("{tag}: back {gap} m from the wall"));
+                }
+            }
+            if (by[i] == PlacedBy::On) != o.on.is_some() {
+                return Err(format!("{tag}: placed_by {:?} but on {:?}", by[i], o.on));
+            }
+        }
+    }
+    for room in &plan.rooms {
+        let floor: Vec<Object> = objects.iter().filter(|o| o.room == room.id && o.on.is_none()).cloned().collect();
+        doors_connected(plan, room, &floor)?;
+    }
+    Ok(())
+}
+
+#[test]
+fn hand_built_plans_keep_every_invariant_over_500_seeds() {
+    let lib = library();
+    let mut classes = BTreeSet::new();
+    let mut on_seen = 0;
+    let mut total = 0;
+    let mut skipped = 0;
+    let mut skipped_by = std::collections::BTreeMap::new();
+    for seed in 0..500_u64 {
+        let plan = random_plan(seed, &lib);
+        let config = GeneratorConfig { seed, ..GeneratorConfig::default() };
+        let mut geometry = Geometry::default();
+        let mut materials = MaterialCatalog::new(seed);
+        let first = 1 + plan.doors.len() as u32;
+        let placement =
+            placement::place_detailed(&config, &plan, &[], &lib, first, &mut materials, &mut geometry).unwrap();
+        if let Err(e) = check(&lib, &plan, &placement.objects, Some(&placement.placed_by), &geometry, first) {
+            panic!("seed {seed}: {e}");
+        }
+        // Same seed, same result.
+        if seed % 50 == 0 {
+            let mut g2 = Geometry::default();
+            let again =
+                placement::place_detailed(&config, &plan, &[], &lib, first, &mut MaterialCatalog::new(seed), &mut g2)
+                    .unwrap();
+            assert_eq!(again, placement, "seed {seed} not deterministic");
+            assert_eq!(g2, geometry);
+        }
+        skipped += placement.skipped.len();
+        for (room, class) in &placement.skipped {
+            let t = &plan.rooms[*room as usize].room_type;
+            *skipped_by.entry((t.clone(), *class)).or_insert(0_usize) += 1;
+        }
+        on_seen += placement.objects.iter().filter(|o| o.on.is_some()).count();
+        total += placement.objects.len();
+        classes.extend(placement.objects.iter().map(|o| o.class));
+    }
+    // Figures for the report (`cargo test --test placement hand_built -- --nocapture`).
+    println!("500 plans: {total} objects placed, {on_seen} on a support, {skipped} requests skipped");
+    println!("skipped by (room type, class): {skipped_by:?}");
+    assert_eq!(classes.len(), 10, "classes seen: {classes:?}");
+    assert!(skipped * 5 < total, "{skipped} skipped for {total} placed");
+    assert!(on_seen > 50, "only {on_seen} objects stood on another");
+    assert!(total > 500 * 4, "only {total} objects in 500 plans");
+}
+
+#[test]
+fn meshes_are_shared_between_instances() {
+    let lib = library();
+    let plan = random_plan(3, &lib);
+    let mut geometry = Geometry::default();
+    let config = GeneratorConfig { seed: 3, ..GeneratorConfig::default() };
+    let objects = placement::place(&config, &plan, &[], &lib, 1, &mut MaterialCatalog::new(3), &mut geometry).unwrap();
+    let names: BTreeSet<&str> = geometry.meshes.iter().map(|m| m.name.as_str()).collect();
+    assert_eq!(names.len(), geometry.meshes.len(), "a mesh was added twice");
+    assert!(geometry.meshes.len() <= objects.len());
+}
+
+#[test]
+fn generate_places_furniture_by_the_rules() {
+    let lib = library();
+    let mut classes = BTreeSet::new();
+    for seed in 0..60_u64 {
+        let config = GeneratorConfig { seed, ..GeneratorConfig::default() };
+        let scene = generate(&config, &lib).unwrap();
+        let plan = Floorplan {
+            rooms: scene.rooms.clone(),
+            walls: scene.walls.clone(),
+            doors: scene.doors.clone(),
+            windows: scene.windows.clone(),
+        };
+        let first = scene.thresholds.iter().map(|t| t.instance_id).max().unwrap_or(0) + 1;
+        if let Err(e) = check(&lib, &plan, &scene.objects, None, &scene.geometry, first) {
+            panic!("seed {seed}: {e}");
+        }
+        assert!(!scene.objects.is_empty(), "seed {seed}: no furniture");
+        classes.extend(scene.objects.iter().map(|o| o.class));
+    }
+    assert!(classes.len() >= 3, "classes seen through generate(): {classes:?}");
+}
+
+fn place_and_check(lib: &Library, seed: u64) -> Result<Vec<Object>, String> {
+    let plan = random_plan(seed, lib);
+    let config = GeneratorConfig { seed, ..GeneratorConfig::default() };
+    let mut geometry = Geometry::default();
+    let first = 1 + plan.doors.len() as u32;
+    let placement =
+        placement::place_detailed(&config, &plan, &[], lib, first, &mut MaterialCatalog::new(seed), &mut geometry)
+            .map_err(|e| e.to_string())?;
+    check(lib, &plan, &placement.objects, Some(&placement.placed_by), &geometry, first)?;
+    Ok(placement.objects)
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(64))]
+
+    #[test]
+    fn any_seed_keeps_the_invariants(seed in proptest::prelude::any::<u64>()) {
+        let lib = library();
+        if let Err(e) = place_and_check(&lib, seed) {
+            proptest::prop_assert!(false, "seed {}: {}", seed, e);
+        }
+    }
+
+    #[test]
+    fn class_toml_and_obj_parsers_never_panic(text in "\\PC{0,300}", obj in "(v -?[0-9] -?[0-9] -?[0-9]\n|f [0-9]( [0-9]){2,3}\n|vn 0 0 1\n|usemtl [a-z]{1,6}\n){0,12}") {
+        use scene_gen::library::{LibraryFile, furniture::parse_furniture};
+        let files = vec![
+            LibraryFile { path: "f/toy/toy.toml".into(), bytes: text.into_bytes() },
+            LibraryFile { path: "f/toy/a.obj".into(), bytes: obj.clone().into_bytes() },
+        ];
+        let _ = parse_furniture(&files);
+        let good = "rooms = []\nplace = \"center\"\nuniform_scale = true\nheight_m = [0.1, 0.2]\n[[variant]]\nobj = \"a\"\n";
+        let files = vec![
+            LibraryFile { path: "f/toy/toy.toml".into(), bytes: good.as_bytes().to_vec() },
+            LibraryFile { path: "f/toy/a.obj".into(), bytes: obj.into_bytes() },
+        ];
+        let _ = parse_furniture(&files);
+    }
+}
