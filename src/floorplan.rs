@@ -54,6 +54,8 @@ const EXTRA_DOOR_CHANCE: f64 = 0.2;
 const SECOND_ENTRANCE_CHANCE: f64 = 0.3;
 /// Grid of split positions, metres.
 const SPLIT_STEP_M: f32 = 0.25;
+/// Least distance between two parallel wall centre lines that are not the same line, metres.
+const MIN_LINE_GAP_M: f32 = 0.3;
 /// Tolerance on lengths, metres.
 const EPS_M: f32 = 1e-4;
 
@@ -138,9 +140,11 @@ fn round_mm(v: f32) -> f32 {
 }
 
 /// Split positions (absolute coordinates) along one axis of `[lo, hi]` that leave both parts at
-/// least `m` long.
-fn split_positions(lo: f32, hi: f32, m: f32) -> Vec<f32> {
-    let mut out = Vec::new();
+/// least `m` long and do not fall within [`MIN_LINE_GAP_M`] of an existing parallel wall line
+/// (`lines`) without lying on it: such near misses would make slivers of wall and jogs
+/// thinner than a wall.
+fn split_positions(lo: f32, hi: f32, m: f32, lines: &[f32]) -> Vec<f32> {
+    let mut out: Vec<f32> = lines.iter().copied().filter(|&c| c > lo && c < hi).collect();
     let mut d = m;
     while lo + d <= hi - m + EPS_M {
         out.push(round_mm(lo + d));
@@ -148,6 +152,7 @@ fn split_positions(lo: f32, hi: f32, m: f32) -> Vec<f32> {
     }
     out.push(round_mm(hi - m));
     out.retain(|&c| c - lo >= m - EPS_M && hi - c >= m - EPS_M);
+    out.retain(|&c| lines.iter().all(|&x| x == c || (x - c).abs() >= MIN_LINE_GAP_M));
     out.sort_by(f32::total_cmp);
     out.dedup();
     out
@@ -162,12 +167,18 @@ fn split_envelope(config: &GeneratorConfig, rng: &mut ChaCha8Rng) -> Vec<Rect> {
     let mut leaves = vec![envelope];
     while leaves.len() < target {
         let total: u32 = leaves.iter().map(|r| r.capacity(m)).sum();
+        let lines: [Vec<f32>; 2] = [0, 1].map(|axis| {
+            let mut l: Vec<f32> = leaves.iter().flat_map(|r| [r.min[axis], r.max[axis]]).collect();
+            l.sort_by(f32::total_cmp);
+            l.dedup();
+            l
+        });
         // Every split that keeps the target reachable: (leaf, axis, position).
         let mut options: Vec<(usize, usize, f32)> = Vec::new();
         for (i, leaf) in leaves.iter().enumerate() {
             let others = total - leaf.capacity(m);
-            for axis in 0..2 {
-                for c in split_positions(leaf.min[axis], leaf.max[axis], m) {
+            for (axis, axis_lines) in lines.iter().enumerate() {
+                for c in split_positions(leaf.min[axis], leaf.max[axis], m, axis_lines) {
                     let (a, b) = split_rect(leaf, axis, c);
                     if (others + a.capacity(m) + b.capacity(m)) as usize >= target {
                         options.push((i, axis, c));
