@@ -272,7 +272,13 @@ fn wall_mesh(wall: &Wall, frame: &WallFrame, walls: &[Wall]) -> (PrimBuilder, Pr
         }
     }
     frame.face_z(&mut side0, h, (s0, s1), w, 1.0);
-    frame.face_z(&mut side0, 0.0, (s0, s1), w, -1.0);
+    // The bottom face stops at door openings, which reach the floor.
+    let mut bottom_from = s0;
+    for o in wall.openings.iter().filter(|o| o.sill_m <= 1e-5) {
+        frame.face_z(&mut side0, 0.0, (bottom_from, o.offset_m - 0.5 * o.width_m), w, -1.0);
+        bottom_from = o.offset_m + 0.5 * o.width_m;
+    }
+    frame.face_z(&mut side0, 0.0, (bottom_from, s1), w, -1.0);
     if cap_a {
         frame.face_s(&mut side0, s0, w, (0.0, h), -1.0);
     }

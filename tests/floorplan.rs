@@ -283,6 +283,24 @@ fn check_geometry(s: &Scene, config: &GeneratorConfig) {
             assert!(d.min_element() < 1e-4, "seed {seed}: wall boxes overlap: {a:?} {b:?}");
         }
     }
+    // Wall solids are closed except at their ends (butt joints leave no cap): the area vectors
+    // of their faces sum to zero across and up the wall. Frames and thresholds are closed boxes.
+    for node in &g.nodes {
+        let along = match node.semantic {
+            Semantic::Wall { wall } => (s.walls[wall as usize].b - s.walls[wall as usize].a).normalize().extend(0.0),
+            Semantic::Threshold { .. } | Semantic::Opening { .. } => Vec3::ZERO,
+            _ => continue,
+        };
+        let mut sum = Vec3::ZERO;
+        for p in &g.meshes[node.mesh].primitives {
+            for tri in p.indices.chunks(3) {
+                let [a, b, c] = [0, 1, 2].map(|k| p.positions[tri[k] as usize]);
+                sum += 0.5 * (b - a).cross(c - a);
+            }
+        }
+        let residual = sum - along * sum.dot(along);
+        assert!(residual.length() < 1e-3, "seed {seed}: {} is not closed: {residual}", node.name);
+    }
     // Thresholds and window frames have nodes with their semantics.
     let threshold_nodes = g.nodes.iter().filter(|n| matches!(n.semantic, Semantic::Threshold { .. })).count();
     assert_eq!(threshold_nodes, s.thresholds.len());
