@@ -9,7 +9,8 @@
 //!    if the rooms it leaves can still reach the target, so every count in the range occurs and
 //!    layouts vary within a count. Drawing the count first is how the tree "decides to stop".
 //! 2. **Types.** Room types are assigned from the room library, honouring each type's
-//!    [`PlanRules`]: first the rooms a plan must have, then weighted draws for the rest.
+//!    [`PlanRules`]: first the rooms a plan must have (each taking a random, the smallest or the
+//!    largest free room, as its `prefer_area` says), then weighted draws for the rest.
 //! 3. **Walls.** Every room edge is a wall centre line; lines are cut into [`Wall`] segments
 //!    with exactly one room (or the outside) on each side.
 //! 4. **Openings.** Doors on a random spanning tree of the room adjacency graph plus a few extra
@@ -26,7 +27,7 @@ use rand_chacha::ChaCha8Rng;
 
 use crate::config::GeneratorConfig;
 use crate::library::RoomType;
-use crate::library::rooms::PlanRules;
+use crate::library::rooms::{AreaPreference, PlanRules};
 use crate::scene::{Door, Opening, OpeningKind, Room, Wall, Window};
 
 /// Door leaf widths drawn, metres. 0.8 m is the common clear width of interior doors (e.g.
@@ -228,9 +229,7 @@ fn assign_types(rects: &[Rect], room_types: &[RoomType], rng: &mut ChaCha8Rng) -
     let areas: Vec<f32> = rects.iter().map(|r| r.size().x * r.size().y).collect();
     let mut assigned: Vec<Option<usize>> = vec![None; rects.len()];
     let mut counts = vec![0u32; room_types.len()];
-    // The rooms every plan of this size must have, most demanding area first: with only
-    // lower bounds on area, taking any eligible room for the most demanding slot never blocks
-    // a later one (the eligible sets are nested).
+    // The rooms every plan of this size must have.
     let mut slots: Vec<usize> = Vec::new();
     let mut total_min = 0u32;
     for (t, rt) in room_types.iter().enumerate() {
@@ -261,20 +260,54 @@ fn assign_types(rects: &[Rect], room_types: &[RoomType], rng: &mut ChaCha8Rng) -
             format!("the plan has {n} rooms but the rules require {total_min} ({})", names.join(", ")),
         ));
     }
-    slots.sort_by(|&a, &b| room_types[b].rules.min_area_m2.total_cmp(&room_types[a].rules.min_area_m2));
-    for t in slots {
-        let eligible: Vec<usize> = (0..rects.len())
+    // Types with an area preference choose first (so the living room does get the largest
+    // room), the rest by larger area bound first. Each slot takes its preferred room among
+    // those that leave the remaining slots satisfiable: with only lower bounds on area, the
+    // remaining slots fit iff, for every k, at least k free rooms reach the k-th largest bound
+    // (Hall's condition for nested sets).
+    slots.sort_by(|&a, &b| {
+        let (ra, rb) = (&room_types[a].rules, &room_types[b].rules);
+        (ra.prefer_area == AreaPreference::Any)
+            .cmp(&(rb.prefer_area == AreaPreference::Any))
+            .then(rb.min_area_m2.total_cmp(&ra.min_area_m2))
+    });
+    let satisfiable = |assigned: &[Option<usize>], rest: &[usize]| {
+        let mut bounds: Vec<f32> = rest.iter().map(|&t| room_types[t].rules.min_area_m2).collect();
+        bounds.sort_by(|a, b| b.total_cmp(a));
+        bounds.iter().enumerate().all(|(k, &bound)| {
+            (0..areas.len()).filter(|&r| assigned[r].is_none() && areas[r] + EPS_M >= bound).count() > k
+        })
+    };
+    if !satisfiable(&assigned, &slots) {
+        let t = *slots
+            .iter()
+            .max_by(|&&a, &&b| room_types[a].rules.min_area_m2.total_cmp(&room_types[b].rules.min_area_m2))
+            .expect("unsatisfiable slots are not empty");
+        let rt = &room_types[t];
+        return Err(rule_error(
+            rt,
+            format!("min_area_m2 = {}", rt.rules.min_area_m2),
+            "not enough rooms are large enough for the rooms this plan requires".into(),
+        ));
+    }
+    for (i, &t) in slots.iter().enumerate() {
+        let mut eligible: Vec<usize> = (0..rects.len())
             .filter(|&r| assigned[r].is_none() && areas[r] + EPS_M >= room_types[t].rules.min_area_m2)
             .collect();
-        if eligible.is_empty() {
-            let rt = &room_types[t];
-            return Err(rule_error(
-                rt,
-                format!("min_area_m2 = {}", rt.rules.min_area_m2),
-                "no free room is large enough for a required room of this type".into(),
-            ));
+        match room_types[t].rules.prefer_area {
+            AreaPreference::Any => eligible.shuffle(rng),
+            AreaPreference::Smallest => eligible.sort_by(|&a, &b| areas[a].total_cmp(&areas[b])),
+            AreaPreference::Largest => eligible.sort_by(|&a, &b| areas[b].total_cmp(&areas[a])),
         }
-        let r = eligible[rng.random_range(0..eligible.len())];
+        let r = eligible
+            .into_iter()
+            .find(|&r| {
+                assigned[r] = Some(t);
+                let ok = satisfiable(&assigned, &slots[i + 1..]);
+                assigned[r] = None;
+                ok
+            })
+            .expect("a satisfiable set of slots has a choice that keeps it satisfiable");
         assigned[r] = Some(t);
         counts[t] += 1;
     }

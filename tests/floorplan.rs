@@ -173,6 +173,19 @@ fn check_plan(s: &Floorplan, config: &GeneratorConfig) {
     if n >= 3 {
         assert!(s.rooms.iter().any(|r| r.room_type == "bathroom"), "seed {seed}: no bathroom");
     }
+    // prefer_area: the living room is the largest room, a bathroom the smallest.
+    let area = |r: &scene_gen::scene::Room| r.size_m().x * r.size_m().y;
+    let largest = s.rooms.iter().map(area).fold(0.0, f32::max);
+    let smallest = s.rooms.iter().map(area).fold(f32::INFINITY, f32::min);
+    let living: Vec<_> = s.rooms.iter().filter(|r| r.room_type == "living_room").collect();
+    assert_eq!(living.len(), 1, "seed {seed}: living rooms");
+    assert!(area(living[0]) >= largest - EPS, "seed {seed}: the living room is not the largest room");
+    if n >= 3 {
+        assert!(
+            s.rooms.iter().any(|r| r.room_type == "bathroom" && area(r) <= smallest + EPS),
+            "seed {seed}: no bathroom is the smallest room"
+        );
+    }
 }
 
 /// Thresholds: exactly one per door, inside the door opening.

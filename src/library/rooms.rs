@@ -12,6 +12,7 @@
 //! required_from_rooms = 3      # at least one in every plan of this many rooms or more
 //! min_plan_rooms = 2           # never in plans with fewer rooms (a one-room plan is a studio)
 //! min_area_m2 = 9.0            # only in rooms with at least this floor area (centre lines)
+//! prefer_area = "smallest"     # required rooms take the smallest ("largest") free room
 //!
 //! [[furniture]]                # objects this room type holds
 //! class = "bed"
@@ -56,6 +57,21 @@ pub struct PlanRules {
     pub min_plan_rooms: u32,
     /// The type is only given to rooms with at least this footprint area (centre lines).
     pub min_area_m2: f32,
+    /// Which free room a required room of this type takes.
+    pub prefer_area: AreaPreference,
+}
+
+/// Which room a required room type takes among those it may have.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum AreaPreference {
+    /// Any, drawn at random.
+    #[default]
+    Any,
+    /// The smallest (a bathroom).
+    Smallest,
+    /// The largest (a living room).
+    Largest,
 }
 
 impl Default for PlanRules {
@@ -66,6 +82,7 @@ impl Default for PlanRules {
             required_from_rooms: None,
             min_plan_rooms: 1,
             min_area_m2: 0.0,
+            prefer_area: AreaPreference::Any,
         }
     }
 }
@@ -93,6 +110,8 @@ struct RoomFile {
     required_from_rooms: Option<Spanned<u32>>,
     min_plan_rooms: Option<Spanned<u32>>,
     min_area_m2: Option<Spanned<f32>>,
+    #[serde(default)]
+    prefer_area: AreaPreference,
 }
 
 #[derive(Deserialize)]
@@ -174,6 +193,7 @@ fn parse_rules(raw: &RoomFile, at: &dyn Fn(usize, String) -> LibraryError) -> Re
         required_from_rooms: get(&raw.required_from_rooms),
         min_plan_rooms: get(&raw.min_plan_rooms).unwrap_or(1),
         min_area_m2: 0.0,
+        prefer_area: raw.prefer_area,
     };
     if let Some(area) = &raw.min_area_m2 {
         let a = *area.get_ref();
@@ -235,7 +255,8 @@ mod tests {
     #[test]
     fn plan_rules_parse() {
         let text = format!(
-            "{HEAD}min_per_plan = 1\nmax_per_plan = 2\nrequired_from_rooms = 3\nmin_plan_rooms = 2\nmin_area_m2 = 12.5\n"
+            "{HEAD}min_per_plan = 1\nmax_per_plan = 2\nrequired_from_rooms = 3\nmin_plan_rooms = 2\nmin_area_m2 = 12.5\n\
+             prefer_area = \"largest\"\n"
         );
         let rt = parse_room_type(&file(&text)).unwrap();
         assert_eq!(
@@ -245,7 +266,8 @@ mod tests {
                 max_per_plan: Some(2),
                 required_from_rooms: Some(3),
                 min_plan_rooms: 2,
-                min_area_m2: 12.5
+                min_area_m2: 12.5,
+                prefer_area: AreaPreference::Largest,
             }
         );
         assert_eq!(parse_room_type(&file(HEAD)).unwrap().rules, PlanRules::default());
@@ -276,6 +298,7 @@ mod tests {
             ("min_plan_rooms = 0", "min_plan_rooms must be at least 1"),
             ("max_per_room = 2", "unknown field `max_per_room`"),
             ("max_per_plan = -2", ""),
+            ("prefer_area = \"middle\"", "unknown variant `middle`"),
         ] {
             let err = parse_room_type(&file(&format!("{HEAD}{line}\n"))).unwrap_err();
             assert_eq!(err.line, Some(4), "{line}: {err}");
