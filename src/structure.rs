@@ -359,3 +359,87 @@ fn metre_uv(p: Vec3, normal: Vec3) -> Vec2 {
         Vec2::new(p.x, -p.z)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::Room;
+
+    fn wall(id: u32, a: Vec2, b: Vec2) -> Wall {
+        Wall { id, a, b, thickness_m: 0.2, height_m: 3.0, rooms: [Some(0), None], openings: Vec::new() }
+    }
+
+    #[test]
+    fn corners_are_owned_by_walls_along_x() {
+        // A 4 x 3 room: walls along X fill the corner squares, walls along Y stop at them.
+        let walls = [
+            wall(0, Vec2::new(0.0, 0.0), Vec2::new(4.0, 0.0)),
+            wall(1, Vec2::new(4.0, 0.0), Vec2::new(4.0, 3.0)),
+            wall(2, Vec2::new(0.0, 3.0), Vec2::new(4.0, 3.0)),
+            wall(3, Vec2::new(0.0, 0.0), Vec2::new(0.0, 3.0)),
+        ];
+        assert_eq!(end_extension(&walls[0], walls[0].a, &walls), (0.1, true));
+        assert_eq!(end_extension(&walls[1], walls[1].a, &walls), (-0.1, false));
+        // A collinear continuation butts at the point.
+        let mut more = walls.to_vec();
+        more.push(wall(4, Vec2::new(4.0, 0.0), Vec2::new(8.0, 0.0)));
+        assert_eq!(end_extension(&more[0], more[0].b, &more), (0.0, false));
+    }
+
+    #[test]
+    fn one_room_house_is_closed_with_a_threshold() {
+        let room = Room { id: 0, room_type: "t".into(), min: Vec2::ZERO, max: Vec2::new(4.0, 3.0) };
+        let mut walls = vec![
+            wall(0, Vec2::new(0.0, 0.0), Vec2::new(4.0, 0.0)),
+            wall(1, Vec2::new(4.0, 0.0), Vec2::new(4.0, 3.0)),
+            wall(2, Vec2::new(0.0, 3.0), Vec2::new(4.0, 3.0)),
+            wall(3, Vec2::new(0.0, 0.0), Vec2::new(0.0, 3.0)),
+        ];
+        walls[0].openings.push(crate::scene::Opening {
+            kind: OpeningKind::Door,
+            id: 0,
+            offset_m: 2.0,
+            width_m: 0.9,
+            sill_m: 0.0,
+            height_m: 2.0,
+        });
+        let door = crate::scene::Door {
+            id: 0,
+            rooms: [Some(0), None],
+            wall: 0,
+            center: Vec3::new(2.0, 0.0, 1.0),
+            width_m: 0.9,
+            height_m: 2.0,
+            normal: Vec2::NEG_Y,
+        };
+        let plan = Floorplan { rooms: vec![room], walls, doors: vec![door], windows: Vec::new() };
+        let rt = RoomType {
+            name: "t".into(),
+            label: "T".into(),
+            weight: 1.0,
+            floor: vec!["wood_floor".into()],
+            walls: vec!["paint".into()],
+            furniture: Vec::new(),
+            rules: Default::default(),
+        };
+        let config = GeneratorConfig { wall_thickness_m: 0.2, ..GeneratorConfig::default() };
+        let mut geometry = Geometry::default();
+        let thresholds =
+            build(&config, &plan, &[rt], &mut MaterialCatalog::new(0), &mut geometry).expect("known surfaces");
+        assert_eq!(thresholds.len(), 1);
+        let th = &thresholds[0];
+        assert!((th.min.x - 1.552).abs() < 1e-4 && (th.max.x - 2.448).abs() < 1e-4, "{th:?}");
+        assert!((th.min.y + 0.1).abs() < 1e-5 && (th.max.y - 0.1).abs() < 1e-5 && th.min.z == 0.0);
+        // The door wall's faces enclose its volume: 4.2 m (with both corner squares) x 0.2 m x
+        // 3 m, less the 0.9 m x 0.2 m x 2 m door hole (divergence theorem on the faces).
+        let node = geometry.nodes.iter().find(|n| n.semantic == Semantic::Wall { wall: 0 }).unwrap();
+        let mut volume = 0.0;
+        for p in &geometry.meshes[node.mesh].primitives {
+            for t in p.indices.chunks(3) {
+                let [a, b, c] = [0, 1, 2].map(|k| p.positions[t[k] as usize]);
+                volume += a.dot(b.cross(c)) / 6.0;
+            }
+        }
+        assert!((volume - (4.2 * 0.2 * 3.0 - 0.9 * 0.2 * 2.0)).abs() < 1e-3, "{volume}");
+    }
+}
