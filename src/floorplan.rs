@@ -100,7 +100,8 @@ pub fn generate(config: &GeneratorConfig, room_types: &[RoomType]) -> Result<Flo
         .map(|(i, (r, &t))| Room { id: i as u32, room_type: room_types[t].name.clone(), min: r.min, max: r.max })
         .collect();
     let mut walls = build_walls(&rooms, config);
-    let doors = place_doors(config, &rooms, &mut walls, &mut rng)?;
+    let entrance_allowed: Vec<bool> = types.iter().map(|&t| room_types[t].rules.entrance).collect();
+    let doors = place_doors(config, &rooms, &entrance_allowed, &mut walls, &mut rng)?;
     let windows = place_windows(config, &rooms, &mut walls, &mut rng);
     for wall in &mut walls {
         wall.openings.sort_by(|a, b| a.offset_m.total_cmp(&b.offset_m));
@@ -430,9 +431,11 @@ fn can_hold_door(wall: &Wall, config: &GeneratorConfig) -> bool {
 fn place_doors(
     config: &GeneratorConfig,
     rooms: &[Room],
+    entrance_allowed: &[bool],
     walls: &mut [Wall],
     rng: &mut ChaCha8Rng,
 ) -> Result<Vec<Door>, FloorplanError> {
+    let room_of = |w: &Wall| w.rooms[0].expect("every wall has a room") as usize;
     // Random spanning tree (Kruskal over shuffled edges) plus a few extra loops.
     let mut edges: Vec<usize> = walls
         .iter()
@@ -472,6 +475,11 @@ fn place_doors(
         .collect();
     if exterior.is_empty() {
         return Err(FloorplanError::NoEntrance);
+    }
+    // Front doors open into rooms whose type allows one, if any room can have one.
+    let allowed: Vec<usize> = exterior.iter().copied().filter(|&w| entrance_allowed[room_of(&walls[w])]).collect();
+    if !allowed.is_empty() {
+        exterior = allowed;
     }
     exterior.shuffle(rng);
     let entrances = if exterior.len() > 1 && rng.random_bool(SECOND_ENTRANCE_CHANCE) { 2 } else { 1 };

@@ -13,6 +13,7 @@
 //! min_plan_rooms = 2           # never in plans with fewer rooms (a one-room plan is a studio)
 //! min_area_m2 = 9.0            # only in rooms with at least this floor area (centre lines)
 //! prefer_area = "smallest"     # required rooms take the smallest ("largest") free room
+//! entrance = false             # no front door into this type (unless no other room can have one)
 //!
 //! [[furniture]]                # objects this room type holds
 //! class = "bed"
@@ -59,6 +60,8 @@ pub struct PlanRules {
     pub min_area_m2: f32,
     /// Which free room a required room of this type takes.
     pub prefer_area: AreaPreference,
+    /// Whether an exterior door may open into this type of room.
+    pub entrance: bool,
 }
 
 /// Which room a required room type takes among those it may have.
@@ -83,6 +86,7 @@ impl Default for PlanRules {
             min_plan_rooms: 1,
             min_area_m2: 0.0,
             prefer_area: AreaPreference::Any,
+            entrance: true,
         }
     }
 }
@@ -112,6 +116,7 @@ struct RoomFile {
     min_area_m2: Option<Spanned<f32>>,
     #[serde(default)]
     prefer_area: AreaPreference,
+    entrance: Option<bool>,
 }
 
 #[derive(Deserialize)]
@@ -194,6 +199,7 @@ fn parse_rules(raw: &RoomFile, at: &dyn Fn(usize, String) -> LibraryError) -> Re
         min_plan_rooms: get(&raw.min_plan_rooms).unwrap_or(1),
         min_area_m2: 0.0,
         prefer_area: raw.prefer_area,
+        entrance: raw.entrance.unwrap_or(true),
     };
     if let Some(area) = &raw.min_area_m2 {
         let a = *area.get_ref();
@@ -256,7 +262,7 @@ mod tests {
     fn plan_rules_parse() {
         let text = format!(
             "{HEAD}min_per_plan = 1\nmax_per_plan = 2\nrequired_from_rooms = 3\nmin_plan_rooms = 2\nmin_area_m2 = 12.5\n\
-             prefer_area = \"largest\"\n"
+             prefer_area = \"largest\"\nentrance = false\n"
         );
         let rt = parse_room_type(&file(&text)).unwrap();
         assert_eq!(
@@ -268,6 +274,7 @@ mod tests {
                 min_plan_rooms: 2,
                 min_area_m2: 12.5,
                 prefer_area: AreaPreference::Largest,
+                entrance: false,
             }
         );
         assert_eq!(parse_room_type(&file(HEAD)).unwrap().rules, PlanRules::default());
