@@ -19,6 +19,8 @@ pub enum GenerateError {
     Config(#[from] ConfigError),
     #[error("floorplan: {0}")]
     Floorplan(#[from] FloorplanError),
+    #[error("structure: {0}")]
+    Structure(#[from] structure::StructureError),
     #[error("furniture placement: {0}")]
     Placement(#[from] PlacementError),
 }
@@ -29,7 +31,7 @@ pub fn generate(config: &GeneratorConfig, library: &Library) -> Result<Scene, Ge
     let mut geometry = Geometry::default();
     let mut materials = MaterialCatalog::new(config.seed);
     let plan = floorplan::generate(config, &library.rooms)?;
-    let thresholds = structure::build(config, &plan, &mut materials, &mut geometry);
+    let thresholds = structure::build(config, &plan, &library.rooms, &mut materials, &mut geometry)?;
     let first_object_instance = thresholds.iter().map(|t| t.instance_id).max().unwrap_or(0) + 1;
     let objects =
         placement::place(config, &plan, &thresholds, library, first_object_instance, &mut materials, &mut geometry)?;

@@ -6,13 +6,21 @@
 //! floor = ["wood_floor", "carpet"]   # floor surfaces to choose from (see materials::SURFACES)
 //! walls = ["paint", "wallpaper"]     # wall surfaces to choose from
 //!
+//! # plan rules, all optional (see PlanRules)
+//! min_per_plan = 0             # every plan has at least this many
+//! max_per_plan = 4             # and at most this many (no limit when absent)
+//! required_from_rooms = 3      # at least one in every plan of this many rooms or more
+//! min_plan_rooms = 2           # never in plans with fewer rooms (a one-room plan is a studio)
+//! min_area_m2 = 9.0            # only in rooms with at least this floor area (centre lines)
+//! prefer_area = "smallest"     # required rooms take the smallest ("largest") free room
+//! entrance = false             # no front door into this type (unless no other room can have one)
+//!
 //! [[furniture]]                # objects this room type holds
 //! class = "bed"
 //! count = [1, 1]               # inclusive range, drawn per room
 //! ```
 //!
-//! The floorplan work extends this with plan rules (how many per plan, which types are
-//! required); unknown keys are refused so a typo never passes silently.
+//! Unknown keys are refused so a typo never passes silently.
 
 use serde::Deserialize;
 use toml::Spanned;
@@ -33,6 +41,54 @@ pub struct RoomType {
     pub floor: Vec<String>,
     pub walls: Vec<String>,
     pub furniture: Vec<FurnitureRequest>,
+    /// How often this type appears in a plan.
+    pub rules: PlanRules,
+}
+
+/// Plan rules of a room type: how many rooms of the type a floorplan has.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PlanRules {
+    /// Every plan (of at least `min_plan_rooms` rooms) has at least this many.
+    pub min_per_plan: u32,
+    /// At most this many per plan; `None` for no limit.
+    pub max_per_plan: Option<u32>,
+    /// Plans with at least this many rooms have at least one of this type.
+    pub required_from_rooms: Option<u32>,
+    /// The type is never used in plans with fewer rooms.
+    pub min_plan_rooms: u32,
+    /// The type is only given to rooms with at least this footprint area (centre lines).
+    pub min_area_m2: f32,
+    /// Which free room a required room of this type takes.
+    pub prefer_area: AreaPreference,
+    /// Whether an exterior door may open into this type of room.
+    pub entrance: bool,
+}
+
+/// Which room a required room type takes among those it may have.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum AreaPreference {
+    /// Any, drawn at random.
+    #[default]
+    Any,
+    /// The smallest (a bathroom).
+    Smallest,
+    /// The largest (a living room).
+    Largest,
+}
+
+impl Default for PlanRules {
+    fn default() -> Self {
+        PlanRules {
+            min_per_plan: 0,
+            max_per_plan: None,
+            required_from_rooms: None,
+            min_plan_rooms: 1,
+            min_area_m2: 0.0,
+            prefer_area: AreaPreference::Any,
+            entrance: true,
+        }
+    }
 }
 
 /// "This room type holds between `min` and `max` objects of `class`."
@@ -53,6 +109,14 @@ struct RoomFile {
     walls: Spanned<Vec<String>>,
     #[serde(default)]
     furniture: Vec<FurnitureEntry>,
+    min_per_plan: Option<Spanned<u32>>,
+    max_per_plan: Option<Spanned<u32>>,
+    required_from_rooms: Option<Spanned<u32>>,
+    min_plan_rooms: Option<Spanned<u32>>,
+    min_area_m2: Option<Spanned<f32>>,
+    #[serde(default)]
+    prefer_area: AreaPreference,
+    entrance: Option<bool>,
 }
 
 #[derive(Deserialize)]
@@ -94,6 +158,7 @@ fn parse_room_type(file: &LibraryFile) -> Result<RoomType, LibraryError> {
             return Err(at(list.span().start, format!("unknown surface '{bad}'")));
         }
     }
+    let rules = parse_rules(&raw, &at)?;
     let mut furniture = Vec::new();
     for entry in raw.furniture {
         let class = ObjectClass::from_name(entry.class.get_ref()).ok_or_else(|| {
@@ -119,7 +184,60 @@ fn parse_room_type(file: &LibraryFile) -> Result<RoomType, LibraryError> {
         floor: raw.floor.into_inner(),
         walls: raw.walls.into_inner(),
         furniture,
+        rules,
     })
+}
+
+/// Checks the plan rules of one file; each error points at the offending key.
+fn parse_rules(raw: &RoomFile, at: &dyn Fn(usize, String) -> LibraryError) -> Result<PlanRules, LibraryError> {
+    let get = |v: &Option<Spanned<u32>>| v.as_ref().map(|s| *s.get_ref());
+    let span = |v: &Option<Spanned<u32>>| v.as_ref().map_or(0, |s| s.span().start);
+    let mut rules = PlanRules {
+        min_per_plan: get(&raw.min_per_plan).unwrap_or(0),
+        max_per_plan: get(&raw.max_per_plan),
+        required_from_rooms: get(&raw.required_from_rooms),
+        min_plan_rooms: get(&raw.min_plan_rooms).unwrap_or(1),
+        min_area_m2: 0.0,
+        prefer_area: raw.prefer_area,
+        entrance: raw.entrance.unwrap_or(true),
+    };
+    if let Some(area) = &raw.min_area_m2 {
+        let a = *area.get_ref();
+        if !(a.is_finite() && a >= 0.0) {
+            return Err(at(area.span().start, format!("min_area_m2 = {a} must be a non-negative number")));
+        }
+        rules.min_area_m2 = a;
+    }
+    if let Some(max) = rules.max_per_plan {
+        if max < rules.min_per_plan {
+            return Err(at(
+                span(&raw.max_per_plan),
+                format!("max_per_plan = {max} is less than min_per_plan = {}", rules.min_per_plan),
+            ));
+        }
+        if max == 0 && rules.required_from_rooms.is_some() {
+            return Err(at(span(&raw.max_per_plan), "max_per_plan = 0 contradicts required_from_rooms".into()));
+        }
+    }
+    if rules.min_plan_rooms == 0 {
+        return Err(at(span(&raw.min_plan_rooms), "min_plan_rooms must be at least 1".into()));
+    }
+    if let Some(from) = rules.required_from_rooms {
+        if from == 0 {
+            return Err(at(span(&raw.required_from_rooms), "required_from_rooms must be at least 1".into()));
+        }
+        if from < rules.min_plan_rooms {
+            return Err(at(
+                span(&raw.required_from_rooms),
+                format!(
+                    "required_from_rooms = {from} is less than min_plan_rooms = {}: the type would be required where \
+                     it is not allowed",
+                    rules.min_plan_rooms
+                ),
+            ));
+        }
+    }
+    Ok(rules)
 }
 
 #[cfg(test)]
@@ -136,6 +254,74 @@ mod tests {
         let err = parse_room_type(&file(text)).unwrap_err();
         assert_eq!(err.line, Some(6));
         assert!(err.to_string().starts_with("rooms/test.toml:6: unknown class 'piano'"), "{err}");
+    }
+
+    const HEAD: &str = "label = \"T\"\nfloor = [\"wood_floor\"]\nwalls = [\"paint\"]\n";
+
+    #[test]
+    fn plan_rules_parse() {
+        let text = format!(
+            "{HEAD}min_per_plan = 1\nmax_per_plan = 2\nrequired_from_rooms = 3\nmin_plan_rooms = 2\nmin_area_m2 = 12.5\n\
+             prefer_area = \"largest\"\nentrance = false\n"
+        );
+        let rt = parse_room_type(&file(&text)).unwrap();
+        assert_eq!(
+            rt.rules,
+            PlanRules {
+                min_per_plan: 1,
+                max_per_plan: Some(2),
+                required_from_rooms: Some(3),
+                min_plan_rooms: 2,
+                min_area_m2: 12.5,
+                prefer_area: AreaPreference::Largest,
+                entrance: false,
+            }
+        );
+        assert_eq!(parse_room_type(&file(HEAD)).unwrap().rules, PlanRules::default());
+    }
+
+    #[test]
+    fn max_below_min_names_file_and_line() {
+        let text = format!("{HEAD}min_per_plan = 2\nmax_per_plan = 1\n");
+        let err = parse_room_type(&file(&text)).unwrap_err();
+        assert_eq!(err.line, Some(5));
+        assert!(err.to_string().starts_with("rooms/test.toml:5: max_per_plan = 1 is less than min_per_plan"), "{err}");
+    }
+
+    #[test]
+    fn required_before_allowed_names_line() {
+        let text = format!("{HEAD}min_plan_rooms = 3\nrequired_from_rooms = 2\n");
+        let err = parse_room_type(&file(&text)).unwrap_err();
+        assert_eq!(err.line, Some(5));
+        assert!(err.to_string().contains("required_from_rooms = 2 is less than min_plan_rooms = 3"), "{err}");
+    }
+
+    #[test]
+    fn bad_rule_values_name_line() {
+        for (line, expect) in [
+            ("min_area_m2 = -1.0", "min_area_m2 = -1 must be a non-negative number"),
+            ("min_area_m2 = nan", "min_area_m2 = NaN must be a non-negative number"),
+            ("required_from_rooms = 0", "required_from_rooms must be at least 1"),
+            ("min_plan_rooms = 0", "min_plan_rooms must be at least 1"),
+            ("max_per_room = 2", "unknown field `max_per_room`"),
+            ("max_per_plan = -2", ""),
+            ("prefer_area = \"middle\"", "unknown variant `middle`"),
+        ] {
+            let err = parse_room_type(&file(&format!("{HEAD}{line}\n"))).unwrap_err();
+            assert_eq!(err.line, Some(4), "{line}: {err}");
+            assert!(err.to_string().starts_with("rooms/test.toml:4: "), "{err}");
+            assert!(err.to_string().contains(expect), "{line}: {err}");
+        }
+    }
+
+    #[test]
+    fn embedded_library_has_plan_rules() {
+        let lib = crate::library::Library::embedded().unwrap();
+        let bath = lib.rooms.iter().find(|r| r.name == "bathroom").expect("bathroom.toml");
+        assert_eq!(bath.rules.required_from_rooms, Some(3));
+        for name in ["bedroom", "bathroom", "living_room", "kitchen", "office"] {
+            assert!(lib.rooms.iter().any(|r| r.name == name), "rooms/{name}.toml missing");
+        }
     }
 
     #[test]
