@@ -128,8 +128,14 @@ impl Builder {
             for i in 0..segments {
                 let (a0, a1) = (base + 2 * i, base + 2 * i + 1);
                 let (b0, b1) = (a0 + 2, a1 + 2);
-                part.triangles.push([a0, b0, b1]);
-                part.triangles.push([a0, b1, a1]);
+                // A radius of zero (a cone's apex) collapses one triangle of the quad; leave
+                // it out rather than emit a zero-area triangle.
+                if r0 > 0.0 {
+                    part.triangles.push([a0, b0, b1]);
+                }
+                if r1 > 0.0 {
+                    part.triangles.push([a0, b1, a1]);
+                }
             }
         }
         for (surface, r, z, up) in [(bottom, r0, 0.0, false), (top, r1, height, true)] {
