@@ -25,6 +25,7 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+pub mod calibration;
 pub mod config;
 pub mod export;
 pub mod floorplan;
@@ -36,4 +37,5 @@ pub mod materials;
 pub mod placement;
 pub mod rng;
 pub mod scene;
+pub mod sensor;
 pub mod structure;
