@@ -1,5 +1,6 @@
 //! `scene-gen sensors`: print the sensor catalog.
 
+use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use clap::Args;
@@ -19,22 +20,25 @@ pub struct SensorsArgs {
 }
 
 pub fn run(args: &SensorsArgs) -> Result<(), CliError> {
+    let mut out = String::new();
     let mut catalog = Catalog::embedded();
     for path in &args.catalog {
         catalog.load_extra(path).map_err(bad_input)?;
     }
     if args.json {
         let text = serde_json::to_string_pretty(catalog.sensors()).map_err(failure)?;
-        println!("{text}");
+        emit(&format!("{text}\n"));
         return Ok(());
     }
-    println!(
+    let _ = writeln!(
+        out,
         "{:<11} {:<8} {:>11} {:>6} {:>15} {:>7} {:<6} {:>4} {:>5} {:>8} {:>5} {:>7}  est",
         "maker", "model", "resolution", "px_um", "area_mm", "mm2", "shutr", "bits", "QE", "FW_e", "RN_e", "dark_e/s"
     );
     for s in catalog.sensors() {
         let colour = if s.colour == Colour::Mono { " mono" } else { "" };
-        println!(
+        let _ = writeln!(
+            out,
             "{:<11} {:<8} {:>11} {:>6.2} {:>15} {:>7.2} {:<6} {:>4} {:>5.2} {:>8.0} {:>5.2} {:>7.2}  {}{}",
             s.maker,
             s.model,
@@ -52,9 +56,17 @@ pub fn run(args: &SensorsArgs) -> Result<(), CliError> {
             colour
         );
     }
-    println!(
+    let _ = writeln!(
+        out,
         "{} sensors, sorted by active area; noise columns marked est=yes are partly estimated (see --json source)",
         catalog.len()
     );
+    emit(&out);
     Ok(())
+}
+
+/// Writes command output to stdout; a closed pipe (`| head`) is not an error.
+pub fn emit(text: &str) {
+    use std::io::Write;
+    let _ = std::io::stdout().lock().write_all(text.as_bytes());
 }
