@@ -16,6 +16,10 @@
 //! * [`materials`]: named surfaces to PBR materials with seeded procedural textures.
 //! * [`scene`]: the hub type; [`manifest`]: its `scene.json` form.
 //! * [`export`]: glTF/GLB, the plan picture, atomic writes.
+//! * [`sensor`]: the sensor catalog and the EMVA 1288 noise model (photons to DN), shared by the
+//!   renderer, the calibration and the gap workflow.
+//! * [`calibration`]: EMVA 1288 descriptors and photon-transfer CSVs to measured sensor
+//!   parameters (`scene-gen calibrate`).
 //!
 //! ```no_run
 //! use scene_gen::{config::GeneratorConfig, generate::generate, library::Library};

@@ -293,3 +293,13 @@ fn a_missing_or_wrong_image_is_named_and_exits_2() {
     let out = bin().arg("calibrate").arg(dir.join("nothing.txt")).output().unwrap();
     assert_eq!(out.status.code(), Some(2));
 }
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(256))]
+    /// Any text is parsed or refused, never a panic (a cheap stand-in for a fuzz target).
+    #[test]
+    fn parsers_never_panic(text in "(([vnbdi#] ?[-0-9a-z.\\\\/ ]{0,12})?\n){0,8}") {
+        let _ = emva::parse_descriptor(&text, Path::new("x.txt"));
+        let _ = calibration::ptc::parse_ptc(&text.replace(' ', ","), Path::new("x.csv"));
+    }
+}
