@@ -93,6 +93,20 @@ fn set003_calibration_matches_the_documented_truth() {
 }
 
 #[test]
+fn a_calibrated_model_reproduces_set003_statistics() {
+    let c = calibrate_emva(&set003()).unwrap();
+    let model = c.to_sensor_model("set003", 1);
+    assert_eq!(SensorModel::from_toml(&model.to_toml().unwrap()).unwrap(), model);
+    // The model's dark and mid-range statistics are those measured (dark noise, K slope).
+    let dark_var = model.expected_temporal_variance_dn2(0.0, 0.001, 0.0);
+    assert!(within(dark_var, c.dark_noise_dn.powi(2), 0.01), "{dark_var} vs {}", c.dark_noise_dn.powi(2));
+    let mid = model.expected_temporal_variance_dn2(20_000.0, 0.001, 0.0) - dark_var;
+    let signal = model.expected_mean_dn(20_000.0, 0.001, 0.0) - model.expected_mean_dn(0.0, 0.001, 0.0);
+    assert!(within(mid / signal, 0.1, 0.02));
+    assert!(model.effects.dsnu.enabled && model.effects.prnu.enabled && !model.effects.dark_current.enabled);
+}
+
+#[test]
 fn calibrate_command_prints_a_table_or_json_only() {
     let out = bin().arg("calibrate").arg(set003()).arg("--json").output().unwrap();
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));

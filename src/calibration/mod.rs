@@ -143,6 +143,42 @@ pub struct Calibration {
     pub affine: AffineCoefficients,
 }
 
+impl Calibration {
+    /// A [`SensorModel`](crate::sensor::SensorModel) with the measured parameters, as the gap
+    /// workflow's starting point: K, QE (1 when unknown), dark noise as read noise, dark level as
+    /// black level, the saturation capacity as full well, DSNU (in electrons) and PRNU when
+    /// measured, dark current when measurable. Effects not measured stay off.
+    #[must_use]
+    pub fn to_sensor_model(&self, name: &str, pattern_seed: u64) -> crate::sensor::SensorModel {
+        use crate::sensor::noise::{self, Effects};
+        let spatial = self.spatial.as_ref();
+        let effects = Effects {
+            black_level: noise::BlackLevel { enabled: true, offset_dn: self.dark_mean_dn },
+            dark_current: noise::DarkCurrent {
+                enabled: self.dark_current.measurable,
+                rate_e_per_s: self.dark_current.e_per_s.unwrap_or(0.0).max(0.0),
+            },
+            quantization: noise::Quantization { enabled: true },
+            saturation: noise::Saturation { enabled: true, full_well_e: self.saturation_capacity_e },
+            dsnu: noise::Dsnu { enabled: spatial.is_some(), std_e: spatial.map_or(0.0, |s| s.dsnu_e) },
+            prnu: noise::Prnu {
+                enabled: spatial.and_then(|s| s.prnu_percent).is_some(),
+                std_fraction: spatial.and_then(|s| s.prnu_percent).unwrap_or(0.0) / 100.0,
+            },
+            ..Effects::default()
+        };
+        crate::sensor::SensorModel {
+            name: name.to_string(),
+            quantum_efficiency: self.quantum_efficiency.unwrap_or(1.0).clamp(0.0, 1.0),
+            system_gain_dn_per_e: self.system_gain_k_dn_per_e,
+            read_noise_e: self.dark_noise_e,
+            adc_bits: self.adc_bits.unwrap_or(16),
+            pattern_seed,
+            effects,
+        }
+    }
+}
+
 /// Calibrates from a file: `.csv` is a photon-transfer CSV (one result per gain), anything else
 /// an EMVA 1288 descriptor.
 pub fn calibrate_path(path: &Path) -> Result<Vec<Calibration>, CalibrationError> {
