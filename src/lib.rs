@@ -17,6 +17,10 @@
 //! * [`materials`]: named surfaces to PBR materials with seeded procedural textures.
 //! * [`scene`]: the hub type; [`manifest`]: its `scene.json` form.
 //! * [`export`]: glTF/GLB, the plan picture, atomic writes.
+//! * [`sensor`]: the sensor catalog and the EMVA 1288 noise model (photons to DN), shared by the
+//!   renderer, the calibration and the gap workflow.
+//! * [`calibration`]: EMVA 1288 descriptors and photon-transfer CSVs to measured sensor
+//!   parameters (`scene-gen calibrate`).
 //!
 //! ```no_run
 //! use scene_gen::{config::GeneratorConfig, generate::generate, library::Library};
@@ -27,6 +31,7 @@
 //! ```
 
 pub mod assets;
+pub mod calibration;
 pub mod config;
 pub mod decor;
 pub mod export;
@@ -39,4 +44,5 @@ pub mod materials;
 pub mod placement;
 pub mod rng;
 pub mod scene;
+pub mod sensor;
 pub mod structure;

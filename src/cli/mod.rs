@@ -1,6 +1,8 @@
 //! Command-line definitions and dispatch.
 
+mod calibrate;
 mod generate;
+mod sensors;
 
 use clap::{Parser, Subcommand};
 
@@ -38,7 +40,12 @@ pub struct Cli {
 }
 
 #[derive(Subcommand, Debug)]
-pub enum Command {}
+pub enum Command {
+    /// Print the sensor catalog.
+    Sensors(sensors::SensorsArgs),
+    /// EMVA 1288 calibration of a measured camera (descriptor + images, or photon-transfer CSV).
+    Calibrate(calibrate::CalibrateArgs),
+}
 
 pub fn parse() -> Cli {
     Cli::parse()
@@ -47,5 +54,7 @@ pub fn parse() -> Cli {
 pub fn run(cli: Cli) -> Result<(), CliError> {
     match cli.command {
         None => generate::run(&cli.generate),
+        Some(Command::Sensors(args)) => sensors::run(&args),
+        Some(Command::Calibrate(args)) => calibrate::run(&args),
     }
 }
