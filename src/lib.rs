@@ -13,7 +13,8 @@
 //! * [`library`]: the room-type and furniture libraries (embedded, or folders at run time).
 //! * [`generate`]: runs the stages in order and returns a [`scene::Scene`].
 //! * [`floorplan`], [`structure`], [`placement`], [`lights`]: the stages.
-//! * [`materials`]: named surfaces to PBR materials with seeded procedural textures.
+//! * [`materials`]: named surfaces to PBR materials with seeded procedural textures
+//!   ([`textures`]).
 //! * [`scene`]: the hub type; [`manifest`]: its `scene.json` form.
 //! * [`export`]: glTF/GLB, the plan picture, atomic writes.
 //!
@@ -37,3 +38,4 @@ pub mod placement;
 pub mod rng;
 pub mod scene;
 pub mod structure;
+pub mod textures;
