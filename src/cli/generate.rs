@@ -18,6 +18,8 @@ use super::{CliError, bad_input, failure};
 pub enum Format {
     /// Binary glTF, one file.
     Glb,
+    /// glTF JSON with a separate scene.bin and textures/*.png.
+    Gltf,
 }
 
 #[derive(Args, Debug)]
@@ -73,19 +75,19 @@ pub fn run(args: &GenerateArgs) -> Result<(), CliError> {
     let scene = generate(&config, &library).map_err(bad_input)?;
 
     // Encode everything before writing anything, so a failure leaves no partial output.
-    let scene_file = match args.format {
-        Format::Glb => ("scene.glb", export::gltf::to_glb(&scene)),
+    let mut files: Vec<(String, Vec<u8>)> = match args.format {
+        Format::Glb => vec![("scene.glb".into(), export::gltf::to_glb(&scene))],
+        Format::Gltf => export::gltf::to_gltf(&scene),
     };
-    let files = [
-        scene_file,
-        ("scene.json", Manifest::of(&scene).to_json().into_bytes()),
-        ("plan.png", export::plan::to_png(&scene)),
-    ];
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("cannot create output folder {}", args.out.display()))
-        .map_err(failure)?;
+    files.push(("scene.json".into(), Manifest::of(&scene).to_json().into_bytes()));
+    files.push(("plan.png".into(), export::plan::to_png(&scene)));
     for (name, bytes) in &files {
-        write_atomic(&args.out.join(name), bytes).map_err(|e| failure(anyhow!(e)))?;
+        let path = args.out.join(name);
+        let folder = path.parent().unwrap_or(&args.out);
+        std::fs::create_dir_all(folder)
+            .with_context(|| format!("cannot create output folder {}", folder.display()))
+            .map_err(failure)?;
+        write_atomic(&path, bytes).map_err(|e| failure(anyhow!(e)))?;
     }
     Ok(())
 }
