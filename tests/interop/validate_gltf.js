@@ -1,21 +1,33 @@
 // Validates GLB files with the Khronos glTF validator (npm gltf-validator, pinned in
 // package.json) and exits non-zero when any file has an error or a warning.
-// Usage: node tests/interop/validate_gltf.js FILE.glb [FILE.glb ...]
+// A .gltf file's external resources (scene.bin, textures/*.png) are read from its folder.
+// Usage: node tests/interop/validate_gltf.js FILE.glb|FILE.gltf [...]
 'use strict';
 const fs = require('fs');
+const path = require('path');
 const validator = require('gltf-validator');
 
 const SEVERITY = ['error', 'warning', 'info', 'hint'];
 
 async function main(files) {
   if (files.length === 0) {
-    console.error('usage: validate_gltf.js FILE.glb [FILE.glb ...]');
+    console.error('usage: validate_gltf.js FILE.glb|FILE.gltf [...]');
     return 2;
   }
   let failed = 0;
   for (const file of files) {
     const bytes = new Uint8Array(fs.readFileSync(file));
-    const report = await validator.validateBytes(bytes, { uri: file, maxIssues: 0 });
+    const dir = path.dirname(file);
+    const report = await validator.validateBytes(bytes, {
+      uri: file,
+      maxIssues: 0,
+      externalResourceFunction: (uri) =>
+        new Promise((resolve, reject) => {
+          fs.readFile(path.join(dir, decodeURIComponent(uri)), (err, data) =>
+            err ? reject(err.toString()) : resolve(new Uint8Array(data)),
+          );
+        }),
+    });
     const issues = report.issues;
     const info = report.info || {};
     console.log(
