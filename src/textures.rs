@@ -104,14 +104,15 @@ impl Lattice {
 
     /// Noise in 0..1 at texture coordinates (u, v); any real u, v (wraps).
     fn at(&self, u: f32, v: f32) -> f32 {
-        let x = u.rem_euclid(1.0) * self.nx as f32;
-        let y = v.rem_euclid(1.0) * self.ny as f32;
+        // Integer wrapping rather than `rem_euclid` on floats: this is the hot loop of baking.
+        let x = u * self.nx as f32;
+        let y = v * self.ny as f32;
         let (x0, y0) = (x.floor(), y.floor());
         let (fx, fy) = (smooth(x - x0), smooth(y - y0));
-        let i0 = (x0 as usize) % self.nx;
-        let j0 = (y0 as usize) % self.ny;
-        let i1 = (i0 + 1) % self.nx;
-        let j1 = (j0 + 1) % self.ny;
+        let i0 = (x0 as i64).rem_euclid(self.nx as i64) as usize;
+        let j0 = (y0 as i64).rem_euclid(self.ny as i64) as usize;
+        let i1 = if i0 + 1 == self.nx { 0 } else { i0 + 1 };
+        let j1 = if j0 + 1 == self.ny { 0 } else { j0 + 1 };
         let row0 = j0 * self.nx;
         let row1 = j1 * self.nx;
         let a = lerp(self.values[row0 + i0], self.values[row0 + i1], fx);

@@ -37,18 +37,23 @@ pub fn to_glb(scene: &Scene) -> Vec<u8> {
     let mut json_bytes = root.to_vec().expect("glTF JSON of plain data always serialises");
     pad(&mut json_bytes, b' ');
     let total = 12 + 8 + json_bytes.len() + if bin.is_empty() { 0 } else { 8 + bin.len() };
-    let mut out = Vec::with_capacity(total);
-    out.extend_from_slice(b"glTF");
-    out.extend_from_slice(&2u32.to_le_bytes());
-    out.extend_from_slice(&u32_len(total).to_le_bytes());
-    out.extend_from_slice(&u32_len(json_bytes.len()).to_le_bytes());
-    out.extend_from_slice(b"JSON");
-    out.extend_from_slice(&json_bytes);
-    if !bin.is_empty() {
-        out.extend_from_slice(&u32_len(bin.len()).to_le_bytes());
-        out.extend_from_slice(b"BIN\0");
-        out.extend_from_slice(&bin);
+    let mut prefix = Vec::with_capacity(total - bin.len());
+    prefix.extend_from_slice(b"glTF");
+    prefix.extend_from_slice(&2u32.to_le_bytes());
+    prefix.extend_from_slice(&u32_len(total).to_le_bytes());
+    prefix.extend_from_slice(&u32_len(json_bytes.len()).to_le_bytes());
+    prefix.extend_from_slice(b"JSON");
+    prefix.extend_from_slice(&json_bytes);
+    if bin.is_empty() {
+        return prefix;
     }
+    prefix.extend_from_slice(&u32_len(bin.len()).to_le_bytes());
+    prefix.extend_from_slice(b"BIN\0");
+    // The binary buffer was allocated with headroom for this prefix: shifting it in place
+    // touches no new memory, where copying megabytes into a fresh Vec spent most of the
+    // export's time in page faults.
+    let mut out = bin;
+    out.splice(0..0, prefix);
     out
 }
 
@@ -118,12 +123,22 @@ struct Builder {
 impl Builder {
     /// Adds `bytes` as a buffer view (4-byte aligned) and returns it.
     fn view(&mut self, bytes: &[u8], target: Option<json::buffer::Target>) -> json::Index<json::buffer::View> {
+        self.view_with(target, |bin| bin.extend_from_slice(bytes))
+    }
+
+    /// Adds a buffer view (4-byte aligned) holding what `write` appends to the buffer; writing
+    /// in place avoids an intermediate copy of every array.
+    fn view_with(
+        &mut self,
+        target: Option<json::buffer::Target>,
+        write: impl FnOnce(&mut Vec<u8>),
+    ) -> json::Index<json::buffer::View> {
         pad(&mut self.bin, 0);
         let offset = self.bin.len();
-        self.bin.extend_from_slice(bytes);
+        write(&mut self.bin);
         self.root.push(json::buffer::View {
             buffer: json::Index::new(0),
-            byte_length: USize64::from(bytes.len()),
+            byte_length: USize64::from(self.bin.len() - offset),
             byte_offset: Some(USize64::from(offset)),
             byte_stride: None,
             name: None,
@@ -134,45 +149,54 @@ impl Builder {
     }
 
     /// Adds a vertex attribute accessor of `N`-component float vectors, with min/max.
-    fn floats<const N: usize>(&mut self, data: &[[f32; N]]) -> json::Index<json::Accessor> {
-        let mut bytes = Vec::with_capacity(data.len() * N * 4);
+    fn floats<const N: usize>(&mut self, data: impl ExactSizeIterator<Item = [f32; N]>) -> json::Index<json::Accessor> {
+        let count = data.len();
         let (mut lo, mut hi) = ([f32::INFINITY; N], [f32::NEG_INFINITY; N]);
-        for v in data {
-            for k in 0..N {
-                bytes.extend_from_slice(&v[k].to_le_bytes());
-                lo[k] = lo[k].min(v[k]);
-                hi[k] = hi[k].max(v[k]);
+        let view = self.view_with(Some(json::buffer::Target::ArrayBuffer), |bin| {
+            // Size once, then fill fixed-size chunks: no per-float capacity checks.
+            let start = bin.len();
+            bin.resize(start + count * N * 4, 0);
+            for (chunk, v) in bin[start..].chunks_exact_mut(N * 4).zip(data) {
+                for k in 0..N {
+                    chunk[k * 4..k * 4 + 4].copy_from_slice(&v[k].to_le_bytes());
+                    if v[k] < lo[k] {
+                        lo[k] = v[k];
+                    }
+                    if v[k] > hi[k] {
+                        hi[k] = v[k];
+                    }
+                }
             }
-        }
-        let view = self.view(&bytes, Some(json::buffer::Target::ArrayBuffer));
+        });
         let type_ = match N {
             2 => json::accessor::Type::Vec2,
             3 => json::accessor::Type::Vec3,
             _ => unreachable!("only VEC2 and VEC3 attributes are written"),
         };
-        self.accessor(
-            view,
-            data.len(),
-            json::accessor::ComponentType::F32,
-            type_,
-            value!(lo.as_slice()),
-            value!(hi.as_slice()),
-        )
+        let (lo, hi) = (value!(lo.as_slice()), value!(hi.as_slice()));
+        self.accessor(view, count, json::accessor::ComponentType::F32, type_, lo, hi)
     }
 
     /// Adds an index accessor, u16 when every index is below 65535, else u32.
     fn indices(&mut self, indices: &[u32]) -> json::Index<json::Accessor> {
         let lo = indices.iter().copied().min().unwrap_or(0);
         let hi = indices.iter().copied().max().unwrap_or(0);
-        let (bytes, component) = if hi < 65535 {
-            (
-                indices.iter().flat_map(|&i| (i as u16).to_le_bytes()).collect::<Vec<_>>(),
-                json::accessor::ComponentType::U16,
-            )
-        } else {
-            (indices.iter().flat_map(|&i| i.to_le_bytes()).collect(), json::accessor::ComponentType::U32)
-        };
-        let view = self.view(&bytes, Some(json::buffer::Target::ElementArrayBuffer));
+        let short = hi < 65535;
+        let view = self.view_with(Some(json::buffer::Target::ElementArrayBuffer), |bin| {
+            let start = bin.len();
+            if short {
+                bin.resize(start + indices.len() * 2, 0);
+                for (chunk, &i) in bin[start..].chunks_exact_mut(2).zip(indices) {
+                    chunk.copy_from_slice(&(i as u16).to_le_bytes());
+                }
+            } else {
+                bin.resize(start + indices.len() * 4, 0);
+                for (chunk, &i) in bin[start..].chunks_exact_mut(4).zip(indices) {
+                    chunk.copy_from_slice(&i.to_le_bytes());
+                }
+            }
+        });
+        let component = if short { json::accessor::ComponentType::U16 } else { json::accessor::ComponentType::U32 };
         self.accessor(view, indices.len(), component, json::accessor::Type::Scalar, value!([lo]), value!([hi]))
     }
 
@@ -208,7 +232,23 @@ fn extras(v: &json::Value) -> json::Extras {
 
 /// Builds the glTF document and its binary buffer.
 fn build(scene: &Scene, images: Images) -> (json::Root, Vec<u8>) {
-    let mut b = Builder { root: json::Root::default(), bin: Vec::new() };
+    // Reserve the whole binary buffer up front (vertex data, indices, PNGs, alignment) so it is
+    // written without reallocating: on big scenes the copies of a growing buffer dominated.
+    let geometry = &scene.geometry;
+    let vertex_bytes: usize = (geometry.meshes.iter().flat_map(|m| &m.primitives))
+        .map(|p| p.positions.len() * 32 + p.indices.len() * 4 + 16)
+        .sum();
+    let png_bytes: usize = match images {
+        Images::Embedded => geometry.textures.iter().map(|t| t.png.len() + 4).sum(),
+        Images::Files => 0,
+    };
+    // Headroom for the GLB header and JSON chunk that [`to_glb`] shifts in front (a generous
+    // estimate of the JSON: a few hundred bytes per node, accessor, material or texture).
+    let items = geometry.nodes.len() + geometry.materials.len() + 3 * geometry.textures.len() + 2 * scene.lights.len();
+    let accessors: usize = geometry.meshes.iter().map(|m| 8 * m.primitives.len()).sum();
+    let headroom = 4096 + 320 * (items + accessors);
+    let bin = Vec::with_capacity(vertex_bytes + png_bytes + headroom);
+    let mut b = Builder { root: json::Root::default(), bin };
     b.root.asset =
         json::Asset { generator: Some(format!("scene-gen {}", env!("CARGO_PKG_VERSION"))), ..json::Asset::default() };
     let geometry = &scene.geometry;
@@ -273,14 +313,13 @@ fn build(scene: &Scene, images: Images) -> (json::Root, Vec<u8>) {
             if n == 0 || p.indices.is_empty() || p.normals.len() != n || p.uvs.len() != n {
                 continue;
             }
-            let positions: Vec<[f32; 3]> = p.positions.iter().map(|&v| to_y_up(v).to_array()).collect();
-            let normals: Vec<[f32; 3]> =
-                p.normals.iter().map(|&v| to_y_up(v).try_normalize().unwrap_or(Vec3::Y).to_array()).collect();
-            let uvs: Vec<[f32; 2]> = p.uvs.iter().map(|&v: &Vec2| v.to_array()).collect();
+            let positions = p.positions.iter().map(|&v| to_y_up(v).to_array());
+            let normals = p.normals.iter().map(|&v| to_y_up(v).try_normalize().unwrap_or(Vec3::Y).to_array());
+            let uvs = p.uvs.iter().map(|&v: &Vec2| v.to_array());
             let mut attributes = BTreeMap::new();
-            attributes.insert(Valid(json::mesh::Semantic::Positions), b.floats(&positions));
-            attributes.insert(Valid(json::mesh::Semantic::Normals), b.floats(&normals));
-            attributes.insert(Valid(json::mesh::Semantic::TexCoords(0)), b.floats(&uvs));
+            attributes.insert(Valid(json::mesh::Semantic::Positions), b.floats(positions));
+            attributes.insert(Valid(json::mesh::Semantic::Normals), b.floats(normals));
+            attributes.insert(Valid(json::mesh::Semantic::TexCoords(0)), b.floats(uvs));
             let indices = b.indices(&p.indices);
             primitives.push(json::mesh::Primitive {
                 attributes,
