@@ -239,3 +239,24 @@ fn generated_scene_exports() {
     assert_eq!(gltf.document.nodes().count(), scene.geometry.nodes.len() + scene.lights.len());
     assert_eq!(glb, to_glb(&generate(&GeneratorConfig { seed: 7, ..GeneratorConfig::default() }, &library).unwrap()));
 }
+
+#[test]
+fn cli_writes_gltf_with_its_buffer_and_textures() {
+    let out = std::env::temp_dir().join(format!("scene-gen-gltf-cli-{}", std::process::id()));
+    let status = std::process::Command::new(env!("CARGO_BIN_EXE_scene-gen"))
+        .args(["--seed", "7", "--format", "gltf", "--out"])
+        .arg(&out)
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let json = std::fs::read(out.join("scene.gltf")).unwrap();
+    let doc = gltf::Gltf::from_slice(&json).unwrap().document;
+    let buffer = doc.buffers().next().unwrap();
+    assert_eq!(std::fs::metadata(out.join("scene.bin")).unwrap().len() as usize, buffer.length());
+    for image in doc.images() {
+        let gltf::image::Source::Uri { uri, .. } = image.source() else { panic!("images are files") };
+        assert!(std::fs::read(out.join(uri)).unwrap().starts_with(b"\x89PNG"), "{uri}");
+    }
+    assert!(!out.join("scene.glb").exists());
+    std::fs::remove_dir_all(&out).unwrap();
+}

@@ -512,7 +512,10 @@ fn light(l: &Light) -> (khr::Light, json::Node) {
 /// projected perpendicular to it when that is possible.
 fn orient(direction: Vec3, x_hint: Option<Vec3>) -> Quat {
     let z = -direction;
-    if let Some(x) = x_hint.and_then(|h| (h - z * h.dot(z)).try_normalize()) {
+    // A hint (almost) along the direction says nothing about the roll: fall back to the
+    // shortest rotation.
+    let perpendicular = x_hint.map(|h| h - z * h.dot(z)).filter(|x| x.length() > 1e-3);
+    if let Some(x) = perpendicular.and_then(Vec3::try_normalize) {
         let y = z.cross(x);
         Quat::from_mat3(&Mat3::from_cols(x, y, z)).normalize()
     } else {
@@ -531,6 +534,43 @@ mod tests {
         assert_eq!(basis().transform_point3(p), to_y_up(p));
         // C is a proper rotation, so its inverse is its transpose and handedness is kept.
         assert!((basis().determinant() - 1.0).abs() < 1e-6);
+    }
+
+    proptest::proptest! {
+        /// For any placement T R S, the exported node transform is C M C^-1: a world point p
+        /// placed by the node lands on C (M p).
+        #[test]
+        fn node_transforms_conjugate_by_the_basis(
+            t in proptest::array::uniform3(-20.0f32..20.0),
+            axis in proptest::array::uniform3(-1.0f32..1.0),
+            angle in -3.1f32..3.1,
+            s in proptest::array::uniform3(0.1f32..3.0),
+            p in proptest::array::uniform3(-1.0f32..1.0),
+        ) {
+            let axis = Vec3::from(axis).try_normalize().unwrap_or(Vec3::Z);
+            let m = Mat4::from_scale_rotation_translation(Vec3::from(s), Quat::from_axis_angle(axis, angle), Vec3::from(t));
+            let node = trs(basis() * m * basis().transpose());
+            let gltf_m = node.matrix.map(|a| Mat4::from_cols_array(&a)).unwrap_or_else(|| {
+                Mat4::from_scale_rotation_translation(
+                    Vec3::from(node.scale.unwrap_or([1.0; 3])),
+                    Quat::from_array(node.rotation.map_or([0.0, 0.0, 0.0, 1.0], |q| q.0)),
+                    Vec3::from(node.translation.unwrap_or([0.0; 3])),
+                )
+            });
+            let p = Vec3::from(p);
+            let want = to_y_up(m.transform_point3(p));
+            let got = gltf_m.transform_point3(to_y_up(p));
+            proptest::prop_assert!(got.abs_diff_eq(want, 1e-3), "{} vs {}", got, want);
+        }
+
+        /// Directional and rect lights shine (local -Z) along their converted direction.
+        #[test]
+        fn any_direction_is_reproduced(d in proptest::array::uniform3(-1.0f32..1.0), u in proptest::array::uniform3(-1.0f32..1.0)) {
+            let Some(d) = Vec3::from(d).try_normalize() else { return Ok(()) };
+            let q = orient(d, Some(Vec3::from(u)));
+            proptest::prop_assert!(q.is_normalized());
+            proptest::prop_assert!(q.mul_vec3(Vec3::NEG_Z).abs_diff_eq(d, 1e-4));
+        }
     }
 
     #[test]
