@@ -65,6 +65,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         cold.0, cold.1
     );
 
+    let mut slowest: Vec<(f64, &str)> = SURFACES
+        .iter()
+        .map(|s| (median_ms(1, || drop(std::hint::black_box(scene_gen::textures::bake(s, 6)))).1, *s))
+        .collect();
+    slowest.sort_by(|a, b| b.0.total_cmp(&a.0));
+    let top: Vec<String> = slowest.iter().take(4).map(|(ms, s)| format!("{s} {ms:.2} ms")).collect();
+    println!("slowest bakes (wall): {}", top.join(", "));
+
     let warm = median_ms(100, || {
         let mut geometry = Geometry::default();
         let mut catalog = MaterialCatalog::new(7);

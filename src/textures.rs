@@ -67,9 +67,9 @@ pub fn bake(surface: &str, variant: u32) -> Option<BakedTexture> {
     let variant = variant % VARIANTS;
     let rgb = pixels(surface, variant, TEXTURE_SIZE as usize)?;
     let png = encode_png(&rgb, TEXTURE_SIZE);
-    let mut rgba8 = Vec::with_capacity(rgb.len() / 3 * 4);
-    for px in rgb.chunks_exact(3) {
-        rgba8.extend_from_slice(&[px[0], px[1], px[2], 255]);
+    let mut rgba8 = vec![255u8; rgb.len() / 3 * 4];
+    for (dst, src) in rgba8.chunks_exact_mut(4).zip(rgb.chunks_exact(3)) {
+        dst[..3].copy_from_slice(src);
     }
     Some(BakedTexture { width: TEXTURE_SIZE, height: TEXTURE_SIZE, rgba8: rgba8.into(), png: png.into() })
 }
@@ -103,14 +103,17 @@ impl Lattice {
     }
 
     /// Noise in 0..1 at texture coordinates (u, v); any real u, v (wraps).
+    #[inline]
     fn at(&self, u: f32, v: f32) -> f32 {
-        // Integer wrapping rather than `rem_euclid` on floats: this is the hot loop of baking.
-        let x = u * self.nx as f32;
-        let y = v * self.ny as f32;
-        let (x0, y0) = (x.floor(), y.floor());
-        let (fx, fy) = (smooth(x - x0), smooth(y - y0));
-        let i0 = (x0 as i64).rem_euclid(self.nx as i64) as usize;
-        let j0 = (y0 as i64).rem_euclid(self.ny as i64) as usize;
+        // Wrap to [0, 1) first, then index with compares rather than integer division: this is
+        // the hot loop of baking.
+        let x = (u - floor(u) as f32) * self.nx as f32;
+        let y = (v - floor(v) as f32) * self.ny as f32;
+        let (x0, y0) = (floor(x), floor(y));
+        let (fx, fy) = (smooth(x - x0 as f32), smooth(y - y0 as f32));
+        // x0 is in 0..=n (n only when rounding makes the wrapped coordinate exactly 1).
+        let wrap = |i: i64, n: usize| if i >= n as i64 { 0 } else { i.max(0) as usize };
+        let (i0, j0) = (wrap(x0, self.nx), wrap(y0, self.ny));
         let i1 = if i0 + 1 == self.nx { 0 } else { i0 + 1 };
         let j1 = if j0 + 1 == self.ny { 0 } else { j0 + 1 };
         let row0 = j0 * self.nx;
@@ -140,6 +143,12 @@ impl Fbm {
         }
         sum / norm
     }
+}
+
+/// `x.floor()` as an integer without a libm call (baseline x86-64 has no SSE4.1 `roundss`).
+fn floor(x: f32) -> i64 {
+    let i = x as i64;
+    if x < i as f32 { i - 1 } else { i }
 }
 
 fn smooth(t: f32) -> f32 {
@@ -177,15 +186,12 @@ fn to_line(x: f32, n: f32) -> f32 {
 
 /// Fills a `size` x `size` RGB8 image from `f(u, v)`, u right and v down, at pixel centres.
 fn paint(size: usize, f: impl Fn(f32, f32) -> Rgb) -> Vec<u8> {
-    let mut out = Vec::with_capacity(size * size * 3);
+    let mut out = vec![0u8; size * size * 3];
     let inv = 1.0 / size as f32;
-    for y in 0..size {
-        let v = (y as f32 + 0.5) * inv;
-        for x in 0..size {
-            let u = (x as f32 + 0.5) * inv;
-            for c in f(u, v) {
-                out.push((c.clamp(0.0, 1.0) * 255.0 + 0.5) as u8);
-            }
+    for (i, px) in out.chunks_exact_mut(3).enumerate() {
+        let (u, v) = (((i % size) as f32 + 0.5) * inv, ((i / size) as f32 + 0.5) * inv);
+        for (dst, c) in px.iter_mut().zip(f(u, v)) {
+            *dst = (c.clamp(0.0, 1.0) * 255.0 + 0.5) as u8;
         }
     }
     out
