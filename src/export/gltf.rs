@@ -251,7 +251,6 @@ fn build(scene: &Scene, images: Images) -> (json::Root, Vec<u8>) {
     let mut b = Builder { root: json::Root::default(), bin };
     b.root.asset =
         json::Asset { generator: Some(format!("scene-gen {}", env!("CARGO_PKG_VERSION"))), ..json::Asset::default() };
-    let geometry = &scene.geometry;
 
     // Textures: one image and one texture per scene texture, all with the one sampler.
     let sampler = (!geometry.textures.is_empty()).then(|| {
