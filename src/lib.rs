@@ -14,7 +14,8 @@
 //! * [`generate`]: runs the stages in order and returns a [`scene::Scene`].
 //! * [`floorplan`], [`structure`], [`placement`], [`decor`], [`lights`]: the stages.
 //! * [`assets`]: furniture OBJ meshes (read with tobj) turned into scene meshes.
-//! * [`materials`]: named surfaces to PBR materials with seeded procedural textures.
+//! * [`materials`]: named surfaces to PBR materials with seeded procedural textures
+//!   ([`textures`]).
 //! * [`scene`]: the hub type; [`manifest`]: its `scene.json` form.
 //! * [`export`]: glTF/GLB, the plan picture, atomic writes.
 //! * [`sensor`]: the sensor catalog and the EMVA 1288 noise model (photons to DN), shared by the
@@ -46,3 +47,4 @@ pub mod rng;
 pub mod scene;
 pub mod sensor;
 pub mod structure;
+pub mod textures;

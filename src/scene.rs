@@ -354,10 +354,11 @@ pub struct Texture {
     pub name: String,
     pub width: u32,
     pub height: u32,
-    /// sRGB-encoded RGBA8, row-major from the top row.
-    pub rgba8: Vec<u8>,
-    /// The same image encoded as PNG.
-    pub png: Vec<u8>,
+    /// sRGB-encoded RGBA8, row-major from the top row. Shared (`Arc`) with the process-wide
+    /// texture cache of [`crate::textures`], so scenes do not copy pixels.
+    pub rgba8: std::sync::Arc<[u8]>,
+    /// The same image encoded as PNG (RGB or RGBA).
+    pub png: std::sync::Arc<[u8]>,
 }
 
 /// What a node is, for labels and instance buffers.

@@ -20,6 +20,8 @@ pub enum Format {
     Glb,
     /// Wavefront OBJ + MTL + textures/, Y up, one group per object.
     Obj,
+    /// glTF JSON with a separate scene.bin and textures/*.png.
+    Gltf,
 }
 
 #[derive(Args, Debug)]
@@ -77,6 +79,7 @@ pub fn run(args: &GenerateArgs) -> Result<(), CliError> {
     // Encode everything before writing anything, so a failure leaves no partial output.
     let mut files = match args.format {
         Format::Glb => vec![("scene.glb".to_string(), export::gltf::to_glb(&scene))],
+        Format::Gltf => export::gltf::to_gltf(&scene),
         Format::Obj => export::obj::to_obj(&scene),
     };
     files.push(("scene.json".into(), Manifest::of(&scene).to_json().into_bytes()));

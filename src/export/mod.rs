@@ -26,7 +26,9 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), WriteError> {
     let result = (|| {
         let mut file = std::fs::File::create(&tmp)?;
         file.write_all(bytes)?;
-        file.sync_all()?;
+        // No fsync: outputs are regenerable from their seed, and the rename alone already
+        // guarantees readers never see a partial file; an fsync per file would dominate the
+        // time to write a scene.
         std::fs::rename(&tmp, path)
     })();
     if result.is_err() {
