@@ -16,7 +16,13 @@ import json
 import os
 import sys
 
-from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdSemantics, UsdShade, Vt
+# Exit status 3 tells the Rust side that usd-core is missing (it then prints the install command).
+USD_CORE_MISSING = 3
+try:
+    from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdSemantics, UsdShade, Vt
+except ImportError as error:
+    print(f"cannot import usd-core: {error}", file=sys.stderr)
+    sys.exit(USD_CORE_MISSING)
 
 SCHEMA = "scene-gen/usd-interchange/1"
 

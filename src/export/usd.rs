@@ -72,6 +72,9 @@ pub const POINT_LIGHT_RADIUS_M: f32 = 0.025;
 /// Angular diameter of the sun, degrees (mean value, IAU).
 pub const SUN_ANGLE_DEG: f32 = 0.53;
 
+/// Exit status of the script when `import pxr` fails.
+const SCRIPT_USD_CORE_MISSING: i32 = 3;
+
 /// The script, embedded so the binary works from any folder.
 const SCRIPT: &str = include_str!("../../exporters/usd/write_usd.py");
 
@@ -137,7 +140,9 @@ pub fn find_python() -> PathBuf {
         .unwrap_or_else(|| PathBuf::from("python3"))
 }
 
-/// Checks that `python` runs and imports usd-core, before anything is written.
+/// Checks that `python` runs and imports usd-core. [`to_usd`] needs no such check first (its
+/// script reports a missing usd-core itself, and nothing is written before it succeeds); this
+/// is for callers that want to know early.
 pub fn check_usd_core(python: &Path) -> Result<(), UsdError> {
     let missing = |problem: String| UsdError::UsdCoreMissing { python: python.to_path_buf(), problem };
     let out = Command::new(python)
@@ -154,9 +159,8 @@ pub fn check_usd_core(python: &Path) -> Result<(), UsdError> {
 
 /// Exports `scene` as USD with `python`: the files to write, as (relative path, bytes), the
 /// scene layer first, then the textures. Nothing is written outside a scratch folder, which is
-/// removed again.
+/// removed again, so a missing usd-core ([`UsdError::UsdCoreMissing`]) leaves no output.
 pub fn to_usd(scene: &Scene, format: UsdFormat, python: &Path) -> Result<Vec<(String, Vec<u8>)>, UsdError> {
-    check_usd_core(python)?;
     let plan = UsdPlan::of(scene);
     let scratch = Scratch::new()?;
     let json = serde_json::to_vec(&plan.doc).expect("plan serialises");
@@ -173,6 +177,11 @@ pub fn to_usd(scene: &Scene, format: UsdFormat, python: &Path) -> Result<Vec<(St
             python: python.to_path_buf(),
             problem: format!("the Python interpreter could not be run: {e}"),
         })?;
+    if out.status.code() == Some(SCRIPT_USD_CORE_MISSING) {
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        let last = stderr.lines().rev().find(|l| !l.trim().is_empty()).unwrap_or("no message");
+        return Err(UsdError::UsdCoreMissing { python: python.to_path_buf(), problem: last.to_string() });
+    }
     if !out.status.success() {
         return Err(UsdError::ScriptFailed {
             status: out.status.to_string(),
