@@ -19,6 +19,8 @@ use scene_gen::library::Library;
 use scene_gen::scene::Scene;
 
 type Files = Vec<(String, Vec<u8>)>;
+/// One format's exporter: the files to write, or why it is unavailable.
+type Exporter<'a> = &'a dyn Fn(&Scene) -> Result<Files, String>;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut args = std::env::args().skip(1);
@@ -43,7 +45,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     );
     println!("{:<14} {:>10} {:>12}", "format", "time ms", "size KiB");
 
-    let formats: [(&str, &dyn Fn(&Scene) -> Result<Files, String>); 4] = [
+    let formats: [(&str, Exporter); 4] = [
         ("glb", &|s| Ok(vec![("scene.glb".into(), gltf::to_glb(s))])),
         ("obj", &|s| Ok(obj::to_obj(s))),
         ("usda", &|s| usd::to_usd(s, usd::UsdFormat::Usda, &python).map_err(|e| e.to_string())),

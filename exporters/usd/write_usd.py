@@ -27,7 +27,8 @@ except ImportError as error:
 SCHEMA = "scene-gen/usd-interchange/1"
 
 # Isaac Sim's legacy semantics schema (multiple-apply, instance name "Semantics"). It is not in
-# usd-core, so it is applied by name and its attributes are authored as custom attributes.
+# usd-core, so it is applied by name and its attributes are authored as Isaac Sim writes them
+# (non-custom strings).
 LEGACY_SEMANTICS = "SemanticsAPI:Semantics"
 LEGACY_TYPE_ATTR = "semantic:Semantics:params:semanticType"
 LEGACY_DATA_ATTR = "semantic:Semantics:params:semanticData"
@@ -84,8 +85,8 @@ def label(prim, spec):
     labels = UsdSemantics.LabelsAPI.Apply(prim, "class")
     labels.CreateLabelsAttr().Set(Vt.TokenArray([spec["class"]]))
     prim.AddAppliedSchema(LEGACY_SEMANTICS)
-    prim.CreateAttribute(LEGACY_TYPE_ATTR, Sdf.ValueTypeNames.String, custom=True).Set("class")
-    prim.CreateAttribute(LEGACY_DATA_ATTR, Sdf.ValueTypeNames.String, custom=True).Set(spec["class"])
+    prim.CreateAttribute(LEGACY_TYPE_ATTR, Sdf.ValueTypeNames.String, custom=False).Set("class")
+    prim.CreateAttribute(LEGACY_DATA_ATTR, Sdf.ValueTypeNames.String, custom=False).Set(spec["class"])
     prim.CreateAttribute("scenegen:class_id", Sdf.ValueTypeNames.Int, custom=True).Set(spec["class_id"])
     prim.CreateAttribute("scenegen:instance_id", Sdf.ValueTypeNames.Int, custom=True).Set(spec["instance_id"])
     if spec.get("room") is not None:

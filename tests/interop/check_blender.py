@@ -117,7 +117,7 @@ def main(argv):
             failures.append(f"{name}: world box {box[0]}..{box[1]} (dimensions {dims}) vs manifest {lo}..{hi} "
                             f"(dimensions {want_dims}): {err * 1e3:.3f} mm off")
     meshes = sum(1 for o in bpy.data.objects if o.type == "MESH")
-    print(f"  Blender {bpy.app.version_string} imported {os.path.relpath(glb)}: {len(bpy.data.objects)} objects "
+    print(f"  Blender {bpy.app.version_string} imported {os.path.basename(os.path.dirname(os.path.abspath(glb)))}/{os.path.basename(glb)}: {len(bpy.data.objects)} objects "
           f"({meshes} meshes), {len(labelled)} labelled; worst bound error {worst_mm:.3f} mm")
     for message in failures:
         print(f"FAIL {message}", file=sys.stderr)
