@@ -52,3 +52,52 @@ fn python_without_pxr_is_refused_with_the_install_command() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("No module named 'pxr'"));
     let _ = std::fs::remove_dir_all(fake);
 }
+
+mod plan {
+    use std::collections::BTreeSet;
+
+    use proptest::prelude::*;
+    use scene_gen::config::GeneratorConfig;
+    use scene_gen::export::usd::UsdPlan;
+    use scene_gen::generate::generate;
+    use scene_gen::library::Library;
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 32, ..ProptestConfig::default() })]
+
+        /// For every seed: prim paths are unique, valid names, each after its parent; one mesh
+        /// prim per primitive of every node; one labelled root per object and threshold; every
+        /// light in its group.
+        #[test]
+        fn usd_layout_is_well_formed_for_every_seed(seed in any::<u64>()) {
+            let library = Library::embedded().unwrap();
+            let scene = generate(&GeneratorConfig { seed, ..GeneratorConfig::default() }, &library).unwrap();
+            let plan = UsdPlan::of(&scene);
+            let doc = &plan.doc;
+            let mut seen = BTreeSet::new();
+            for path in doc.prims.iter().map(|p| &p.path).chain(doc.meshes.iter().map(|m| &m.path)) {
+                let parent = &path[..path.rfind('/').unwrap()];
+                prop_assert!(parent.is_empty() || seen.contains(parent), "{} before its parent", path);
+                prop_assert!(seen.insert(path.clone()), "{} twice", path);
+                for name in path[1..].split('/') {
+                    prop_assert!(!name.is_empty() && !name.starts_with(|c: char| c.is_ascii_digit()));
+                    prop_assert!(name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_'), "{}", name);
+                }
+            }
+            let primitives: usize =
+                scene.geometry.nodes.iter().map(|n| scene.geometry.meshes[n.mesh].primitives.len()).sum();
+            prop_assert_eq!(doc.meshes.len(), primitives);
+            let labelled = doc.prims.iter().filter(|p| p.label.is_some()).count();
+            prop_assert_eq!(labelled, scene.objects.len() + scene.thresholds.len());
+            prop_assert_eq!(doc.lights.len(), scene.lights.len());
+            for (light, prim) in scene.lights.iter().zip(&doc.lights) {
+                let group = if light.group == scene_gen::scene::LightGroup::Day { "Day" } else { "Night" };
+                let prefix = format!("/World/Lights/{group}/");
+                prop_assert!(prim.path.starts_with(&prefix), "{} not under {}", prim.path, prefix);
+                prop_assert!(prim.intensity.is_finite() && prim.intensity > 0.0);
+            }
+            let mesh_bytes: usize = doc.meshes.iter().map(|m| 4 * (3 * m.points.count + 3 * m.normals.count + 2 * m.st.count + m.indices.count)).sum();
+            prop_assert_eq!(mesh_bytes, plan.bin.len());
+        }
+    }
+}

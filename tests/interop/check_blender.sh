@@ -19,7 +19,7 @@ fi
 "$venv/bin/python" -m pip install -q --disable-pip-version-check -r tests/interop/requirements-blender.txt
 python="$venv/bin/python"
 bin=target/release/scene-gen
-[ -x "$bin" ] || cargo build --release --bin scene-gen
+cargo build --release --quiet --bin scene-gen  # a no-op after scripts/test built it
 
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT

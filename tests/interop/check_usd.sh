@@ -10,7 +10,7 @@ cd "$(dirname "$0")/../.."
 
 python=.venv/bin/python
 bin=target/release/scene-gen
-[ -x "$bin" ] || cargo build --release --bin scene-gen
+cargo build --release --quiet --bin scene-gen  # a no-op after scripts/test built it
 cargo build --release --quiet --example labelled_scene
 export SCENE_GEN_PYTHON="$python"
 
