@@ -1,6 +1,7 @@
-"""Imports a scene-gen GLB into Blender (the `bpy` module) and checks it against the manifest.
+"""Imports a scene-gen GLB (or USD) into Blender (the `bpy` module) and checks it against the
+manifest.
 
-    python tests/interop/check_blender.py SCENE.glb [SCENE.json]
+    python tests/interop/check_blender.py SCENE.glb|SCENE.usda|SCENE.usdc [SCENE.json]
 
 The contract (DESIGN.md, src/export/gltf.rs): every object and threshold is a glTF node named
 `<class>_<id>` whose extras are {class, class_id, instance_id, room, room_type}; glTF is Y up in
@@ -13,6 +14,11 @@ in Blender each labelled object must:
 And the number of labelled Blender objects equals the manifest's objects + thresholds.
 
 An empty, truncated or non-glTF file fails before Blender is asked anything.
+
+USD goes through Blender's own USD importer: labelled prims become objects named `<class>_<id>`
+whose custom attributes (`scenegen:class_id`, `scenegen:instance_id`) become custom
+properties; the same count, property and bounds checks apply (Blender does not import the
+UsdSemantics token arrays, so the class is read from the name there).
 Exits non-zero with every failure listed.
 """
 
@@ -69,7 +75,8 @@ def world_box(obj):
 def main(argv):
     glb = argv[1]
     manifest_path = argv[2] if len(argv) > 2 else os.path.join(os.path.dirname(glb), "scene.json")
-    reason = check_glb_header(glb)
+    is_usd = glb.endswith((".usda", ".usdc", ".usd"))
+    reason = None if is_usd else check_glb_header(glb)
     if reason:
         print(f"FAIL {reason}", file=sys.stderr)
         return 1
@@ -79,9 +86,12 @@ def main(argv):
     import bpy  # late: the header check needs no Blender
 
     bpy.ops.wm.read_factory_settings(use_empty=True)
-    result = bpy.ops.import_scene.gltf(filepath=os.path.abspath(glb))
+    if is_usd:
+        result = bpy.ops.wm.usd_import(filepath=os.path.abspath(glb))
+    else:
+        result = bpy.ops.import_scene.gltf(filepath=os.path.abspath(glb))
     if result != {"FINISHED"}:
-        print(f"FAIL Blender's glTF importer returned {result}", file=sys.stderr)
+        print(f"FAIL Blender's importer returned {result}", file=sys.stderr)
         return 1
 
     failures = []
@@ -91,17 +101,22 @@ def main(argv):
     for t in manifest["thresholds"]:
         expected[f"threshold_{t['id']}"] = ("threshold", t["instance_id"], t["min"], t["max"])
 
-    labelled = {o.name: o for o in bpy.data.objects if "class" in o.keys()}
+    marker = "scenegen:instance_id" if is_usd else "class"
+    labelled = {o.name: o for o in bpy.data.objects if marker in o.keys()}
     if len(labelled) != len(expected):
-        failures.append(f"{len(labelled)} Blender objects carry a `class` property, manifest has "
+        failures.append(f"{len(labelled)} Blender objects carry a `{marker}` property, manifest has "
                         f"{len(expected)} objects + thresholds")
     worst_mm = 0.0
     for name, (cls, instance_id, lo, hi) in sorted(expected.items()):
         obj = labelled.get(name)
         if obj is None:
-            failures.append(f"{name}: no Blender object of that name with a `class` property")
+            failures.append(f"{name}: no Blender object of that name with a `{marker}` property")
             continue
-        got = {k: obj.get(k) for k in ("class", "class_id", "instance_id")}
+        if is_usd:
+            got = {"class": name.rsplit("_", 1)[0], "class_id": obj.get("scenegen:class_id"),
+                   "instance_id": obj.get("scenegen:instance_id")}
+        else:
+            got = {k: obj.get(k) for k in ("class", "class_id", "instance_id")}
         want = {"class": cls, "class_id": CLASS_IDS[cls], "instance_id": instance_id}
         if got != want:
             failures.append(f"{name}: custom properties {got}, want {want}")

@@ -6,7 +6,9 @@
 #
 # First a self-test on a hand-made GLB of the contract (make_test_glb.py): it must pass, the
 # same GLB with the manifest's table moved 2 mm must fail, and an empty GLB must fail. Then two
-# generated seeds. Installing bpy takes about 30 s from a warm pip cache (about 400 MB).
+# generated seeds (GLB), and the USD export of a scene with labelled objects through Blender's
+# USD importer (needs usd-core in .venv/, as check_usd.sh does). Installing bpy takes about 30 s
+# from a warm pip cache (about 400 MB).
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 
@@ -38,6 +40,14 @@ if "$python" tests/interop/check_blender.py "$work/empty.glb" "$work/good/scene.
   echo "check_blender: an empty GLB passed" >&2; exit 1
 fi
 echo "  a 2 mm bound error and an empty GLB are both caught"
+
+# The USD export, through Blender's USD importer (a second tool reading the same stage).
+cargo build --release --quiet --example labelled_scene
+for format in usda usdc; do
+  SCENE_GEN_PYTHON=.venv/bin/python target/release/examples/labelled_scene 3 "$format" "$work/usd-$format"
+  echo "USD ($format, seed 3 with labelled objects and a threshold):"
+  "$python" tests/interop/check_blender.py "$work/usd-$format/scene.$format" 2>&1 | quiet
+done
 
 for seed in 1 2; do
   "$bin" --seed "$seed" --format glb --out "$work/s$seed"
