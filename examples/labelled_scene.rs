@@ -169,5 +169,7 @@ fn checker_texture() -> Texture {
     image::codecs::png::PngEncoder::new(&mut png)
         .write_image(&rgba8, width, height, image::ExtendedColorType::Rgba8)
         .expect("in-memory PNG encoding");
-    Texture { name: "checker".into(), width, height, rgba8, png }
+    // `.into()`: the pixel buffers may be shared (`Arc<[u8]>`, the textures branch) or owned.
+    #[allow(clippy::useless_conversion)]
+    Texture { name: "checker".into(), width, height, rgba8: rgba8.into(), png: png.into() }
 }

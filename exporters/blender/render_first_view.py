@@ -10,8 +10,14 @@ Imports the GLB (glTF node extras become custom properties: `class`, `class_id`,
 camera 0.8 m above the floor at the centre of the first room of the manifest (scene.json beside
 the GLB, or --manifest FILE) looking level at that room's first door, and renders with Cycles on
 the CPU at low samples (--samples, default 16; --size WxH, default 640x480) so it takes about a
-minute. Lights come from the GLB (KHR_lights_punctual); a dim grey world keeps a scene without
-imported lights from rendering black.
+minute.
+
+Lights come from the GLB (KHR_lights_punctual, imported in physical units); `--lighting day`
+(default) or `night` keeps only that group (the `group` custom property from the light's node
+extras), `both` keeps all. The scenes are lit like real rooms (about 20 lux by day, 2 lux by
+night), far below what Blender's view transform expects, so the film is exposed up by
+`--exposure` stops (default 7 by day, 10 by night), as a camera's auto-exposure would. A GLB
+without lights gets a dim grey world instead of rendering black.
 """
 
 import argparse
@@ -38,6 +44,8 @@ def parse(argv):
     p.add_argument("--manifest", help="scene.json (default: beside the GLB)")
     p.add_argument("--samples", type=int, default=16)
     p.add_argument("--size", default="640x480")
+    p.add_argument("--lighting", choices=["day", "night", "both"], default="day")
+    p.add_argument("--exposure", type=float, help="film exposure in stops (default 7 by day, 10 by night)")
     return p.parse_args(argv)
 
 
@@ -82,10 +90,18 @@ def main(argv):
     scene.collection.objects.link(camera)
     scene.camera = camera
 
-    world = bpy.data.worlds.new("dim")
+    lights = [o for o in scene.objects if o.type == "LIGHT"]
+    for light in lights:
+        group = light.get("group")
+        light.hide_render = args.lighting != "both" and group is not None and group != args.lighting
+    lit = [o for o in lights if not o.hide_render]
+    world = bpy.data.worlds.new("background")
     world.use_nodes = True
-    world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.05, 0.05, 0.05, 1.0)
+    grey = 0.0 if lit else 0.05
+    world.node_tree.nodes["Background"].inputs["Color"].default_value = (grey, grey, grey, 1.0)
     scene.world = world
+    exposure = args.exposure if args.exposure is not None else (10.0 if args.lighting == "night" else 7.0)
+    scene.view_settings.exposure = exposure if lit else 0.0
 
     scene.render.engine = "CYCLES"
     scene.cycles.device = "CPU"
@@ -97,7 +113,8 @@ def main(argv):
     scene.render.filepath = os.path.abspath(args.png)
     bpy.ops.render.render(write_still=True)
     heading = math.degrees(math.atan2(target.y - eye.y, target.x - eye.x))
-    print(f"render_first_view: {args.png} ({width}x{height}, {args.samples} spp), eye {tuple(round(v, 3) for v in eye)}, "
+    print(f"render_first_view: {args.png} ({width}x{height}, {args.samples} spp, {len(lit)} {args.lighting} lights, "
+          f"exposure {scene.view_settings.exposure:+.1f}), eye {tuple(round(v, 3) for v in eye)}, "
           f"heading {heading:.1f} deg from +X")
 
 

@@ -191,7 +191,7 @@ pub fn to_usd(scene: &Scene, format: UsdFormat, python: &Path) -> Result<Vec<(St
     let layer = scratch.read(&layer_name)?;
     let mut files = vec![(layer_name, layer)];
     for (i, texture) in scene.geometry.textures.iter().enumerate() {
-        files.push((texture_path(i, &texture.name), texture.png.clone()));
+        files.push((texture_path(i, &texture.name), texture.png.to_vec()));
     }
     Ok(files)
 }
