@@ -22,6 +22,10 @@ pub enum Format {
     Obj,
     /// glTF JSON with a separate scene.bin and textures/*.png.
     Gltf,
+    /// USD text layer + textures/, Z up, metres, semantics labels (needs usd-core).
+    Usda,
+    /// USD binary (crate) layer + textures/ (needs usd-core).
+    Usdc,
 }
 
 #[derive(Args, Debug)]
@@ -81,10 +85,21 @@ pub fn run(args: &GenerateArgs) -> Result<(), CliError> {
         Format::Glb => vec![("scene.glb".to_string(), export::gltf::to_glb(&scene))],
         Format::Gltf => export::gltf::to_gltf(&scene),
         Format::Obj => export::obj::to_obj(&scene),
+        Format::Usda => usd(&scene, export::usd::UsdFormat::Usda)?,
+        Format::Usdc => usd(&scene, export::usd::UsdFormat::Usdc)?,
     };
     files.push(("scene.json".into(), Manifest::of(&scene).to_json().into_bytes()));
     files.push(("plan.png".into(), export::plan::to_png(&scene)));
     write_all(&args.out, &files)
+}
+
+/// USD through usd-core; a missing usd-core is the user's to fix (exit 2, install command).
+fn usd(scene: &scene_gen::scene::Scene, format: export::usd::UsdFormat) -> Result<Vec<(String, Vec<u8>)>, CliError> {
+    use export::usd::UsdError;
+    export::usd::to_usd(scene, format, &export::usd::find_python()).map_err(|e| match e {
+        UsdError::UsdCoreMissing { .. } => bad_input(e),
+        _ => failure(e),
+    })
 }
 
 /// Writes every file under `out`, each atomically.

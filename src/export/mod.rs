@@ -1,8 +1,10 @@
-//! Writers for generated scenes: glTF/GLB, OBJ, the plan picture, and atomic file output.
+//! Writers for generated scenes: glTF/GLB, USD (through usd-core), OBJ, the plan picture, and
+//! atomic file output.
 
 pub mod gltf;
 pub mod obj;
 pub mod plan;
+pub mod usd;
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
