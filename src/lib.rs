@@ -16,6 +16,7 @@
 //! * [`materials`]: named surfaces to PBR materials with seeded procedural textures.
 //! * [`scene`]: the hub type; [`manifest`]: its `scene.json` form.
 //! * [`export`]: glTF/GLB, the plan picture, atomic writes.
+//! * [`render`]: the CPU ray tracer (radiance per light group, depth, instance/class ids).
 //!
 //! ```no_run
 //! use scene_gen::{config::GeneratorConfig, generate::generate, library::Library};
@@ -35,6 +36,7 @@ pub mod lights;
 pub mod manifest;
 pub mod materials;
 pub mod placement;
+pub mod render;
 pub mod rng;
 pub mod scene;
 pub mod structure;
