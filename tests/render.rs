@@ -385,3 +385,64 @@ fn textures_are_decoded_and_tinted() {
     let c = frame.day_nit[0];
     assert!((c[0] - 100.0 / PI).abs() < 1e-3 && (c[1] - 0.215_861 * 100.0 / PI).abs() < 1e-3 && c[2] == 0.0, "{c:?}");
 }
+
+#[test]
+fn polished_metal_mirrors_an_emitter_tinted_by_its_base_colour() {
+    let mut scene = empty_scene();
+    let gold = add_material(&mut scene, "gold_0", [1.0, 0.5, 0.25], 1.0, 0.0);
+    add_mesh(
+        &mut scene,
+        quad(Vec3::ZERO, Vec3::X * 50.0, Vec3::Y * 50.0, gold),
+        Mat4::IDENTITY,
+        Semantic::Floor { room: 0 },
+    );
+    let l_nit = 300.0;
+    scene.lights.push(rect_light(
+        LightGroup::Day,
+        Vec3::new(0.0, 0.0, 2.0),
+        Vec3::X * 2.0,
+        Vec3::Y * 2.0,
+        -Vec3::Z,
+        l_nit,
+    ));
+    let frame = Renderer::new(&scene, RenderSettings::standard()).render(&down_camera(Vec3::Z, 8, 6)).unwrap();
+    let c = frame.day_nit[frame.index(4, 3)];
+    assert!(
+        (c[0] - l_nit).abs() < 1e-2 && (c[1] - 0.5 * l_nit).abs() < 1e-2 && (c[2] - 0.25 * l_nit).abs() < 1e-2,
+        "{c:?}"
+    );
+    let no_mirrors = RenderSettings { specular: false, ..RenderSettings::standard() };
+    let frame = Renderer::new(&scene, no_mirrors).render(&down_camera(Vec3::Z, 8, 6)).unwrap();
+    assert_eq!(frame.day_nit[frame.index(4, 3)], [0.0; 3], "a polished metal has no diffuse part");
+}
+
+mod properties {
+    use super::*;
+    use proptest::prelude::*;
+    use std::sync::OnceLock;
+
+    fn room() -> &'static Scene {
+        static SCENE: OnceLock<Scene> = OnceLock::new();
+        SCENE.get_or_init(|| room_of_boxes(Vec3::new(6.0, 5.0, 2.6), 5))
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+        /// From anywhere inside a closed room, looking anywhere, every pixel hits geometry, and
+        /// radiance is finite and non-negative.
+        #[test]
+        fn closed_room_views_are_hole_free_and_finite(
+            x in 0.2f32..5.8, y in 0.2f32..4.8, z in 1.0f32..2.5,
+            yaw in -180f32..180.0, pitch in -90f32..=90.0, seed in 0u64..1000,
+        ) {
+            let settings = RenderSettings { indirect_rays: 1, seed, ..RenderSettings::preview() };
+            let renderer = Renderer::new(room(), settings);
+            let cam = Camera { pixel_pitch_um: 40.0, ..camera(24, 16, Vec3::new(x, y, z), yaw, pitch) };
+            let frame = renderer.render(&cam).unwrap();
+            prop_assert!(frame.depth_m.iter().all(|d| d.is_finite() && *d > -1e-3));
+            for c in frame.day_nit.iter().chain(&frame.night_nit) {
+                prop_assert!(c.iter().all(|v| v.is_finite() && *v >= 0.0));
+            }
+        }
+    }
+}
