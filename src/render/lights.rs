@@ -11,6 +11,8 @@
 //! * rect (one-sided Lambertian emitter of luminance `L`): `E = sum L cos(theta) cos(theta') dA / d^2`
 //!   over stratified jittered area samples, one shadow ray each (soft shadows).
 
+use std::f32::consts::PI;
+
 use glam::Vec3;
 
 use super::accel::Accel;
@@ -85,6 +87,10 @@ pub struct LightSet {
     points: Vec<PointLight>,
     directionals: Vec<DirectionalLight>,
     pub(crate) rects: Vec<RectLight>,
+    /// Per group, the brightest radiance a white Lambertian surface gets from one light at a
+    /// reference distance of 1 m (point: `I / pi`, directional: `E / pi`, rect: `L`); the unit
+    /// of the bounce clamp. Linear in the lights, so clamping commutes with [`super::LightScale`].
+    pub(crate) reference_nit: [f32; 2],
 }
 
 impl LightSet {
@@ -103,11 +109,13 @@ impl LightSet {
                 LightKind::Point => {
                     if let Some(position) = light.position.filter(|p| p.is_finite()) {
                         set.points.push(PointLight { position, rgb_cd: rgb, group });
+                        set.reference_nit[group] = set.reference_nit[group].max(intensity / PI);
                     }
                 }
                 LightKind::Directional => {
                     if let Some(d) = light.direction.map(Vec3::normalize_or_zero).filter(|d| *d != Vec3::ZERO) {
                         set.directionals.push(DirectionalLight { to_light: -d, rgb_lux: rgb, group });
+                        set.reference_nit[group] = set.reference_nit[group].max(intensity / PI);
                     }
                 }
                 LightKind::Rect => {
@@ -119,6 +127,7 @@ impl LightSet {
                     let normal = light.direction.unwrap_or(cross).normalize_or_zero();
                     if area_m2 > 0.0 && normal != Vec3::ZERO && center.is_finite() {
                         set.rects.push(RectLight { center, u, v, normal, area_m2, rgb_nit: rgb, group });
+                        set.reference_nit[group] = set.reference_nit[group].max(intensity);
                     }
                 }
             }

@@ -8,6 +8,14 @@
 //!   estimated with cosine-weighted rays, `E_indirect = pi * mean(L_bounce)`, where the bounce
 //!   point is shaded with direct light only (so inter-reflection is under-estimated: the second
 //!   and later bounces are missing, roughly `rho^2` of the total in a closed room).
+//! * **Biased on purpose**: a bounce sample's radiance is clamped to
+//!   [`RenderSettings::indirect_clamp`] times the group's reference radiance (`I / pi` of its
+//!   strongest point light at 1 m, `E / pi` of the sun, `L` of its brightest rect light). A
+//!   ceiling 0.1 m above a bulb is hundreds of times brighter than the rest of the room and
+//!   cosine-weighted bounce rays find it rarely: unclamped, it turns into white speckles. The
+//!   clamp trades that noise for a darker indirect term near such hot spots; it is linear in
+//!   the lights, so it commutes with [`super::LightScale`], and the illuminance probe applies
+//!   the same clamp, so scaled frames still meet their targets.
 //! * **Approximate**: metals. A material reflects a fraction `s = metallic * (1 - roughness)`
 //!   specularly (a mirror ray, its direction jittered by `roughness`, tinted by the base colour
 //!   as the Fresnel reflectance at normal incidence of a metal) and the rest diffusely with the
@@ -20,7 +28,7 @@ use std::sync::OnceLock;
 use glam::{Vec2, Vec3};
 
 use super::accel::{Accel, SurfacePoint};
-use super::lights::{LightSet, ray_epsilon};
+use super::lights::{LightSet, luminance, ray_epsilon};
 use super::{GroupRgb, RenderSettings, Sampler};
 use crate::scene::{Material, Scene, Texture};
 
@@ -160,7 +168,15 @@ impl Tracer<'_> {
             }
             if let Some(hit) = self.accel.closest_hit(origin, dir, f32::INFINITY) {
                 let surface = self.accel.surface(&hit, origin, dir);
-                sum = add(sum, self.diffuse_direct_radiance(&surface, sampler));
+                let mut l = self.diffuse_direct_radiance(&surface, sampler);
+                for (g, c) in l.iter_mut().enumerate() {
+                    let limit = self.settings.indirect_clamp * self.lights.reference_nit[g];
+                    let y = luminance(*c);
+                    if y > limit {
+                        *c *= limit / y;
+                    }
+                }
+                sum = add(sum, l);
             }
         }
         // E = pi * mean(L) for cosine-weighted directions.
