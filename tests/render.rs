@@ -446,3 +446,29 @@ mod properties {
         }
     }
 }
+
+#[test]
+fn light_culling_is_unbiased_and_saves_work() {
+    // One bright light overhead and 40 weak ones scattered far away, all unoccluded.
+    let mut scene = floor_scene();
+    scene.lights.push(point_light(LightGroup::Night, Vec3::new(0.0, 0.0, 2.0), 100.0));
+    for k in 0..40 {
+        let a = k as f32 * 0.61;
+        let r = 8.0 + (k % 7) as f32;
+        scene.lights.push(point_light(LightGroup::Night, Vec3::new(a.cos() * r, a.sin() * r, 2.5), 30.0));
+    }
+    let exact_settings = RenderSettings { light_cull: 0.0, probe_indirect_rays: 0, ..RenderSettings::standard() };
+    let culled_settings = RenderSettings { light_cull: 0.1, ..exact_settings };
+    let (exact, culled) = (Renderer::new(&scene, exact_settings), Renderer::new(&scene, culled_settings));
+    let points: Vec<Vec3> =
+        (0..400).map(|i| Vec3::new((i % 20) as f32 * 0.1 - 1.0, (i / 20) as f32 * 0.1 - 1.0, 0.0)).collect();
+    let mean =
+        |r: &Renderer| points.iter().map(|p| r.illuminance_lux(*p, Vec3::Z, LightGroup::Night)).sum::<f32>() / 400.0;
+    let (e_exact, e_culled) = (mean(&exact), mean(&culled));
+    assert_close(e_culled, e_exact, 0.02, "culled mean illuminance");
+    // Individual estimates do differ (the far lights are sampled), so culling did happen.
+    let p = Vec3::new(0.3, 0.2, 0.0);
+    assert!(
+        exact.illuminance_lux(p, Vec3::Z, LightGroup::Night) != culled.illuminance_lux(p, Vec3::Z, LightGroup::Night)
+    );
+}

@@ -39,6 +39,8 @@ fn unit_luminance_tint(color: [f32; 3]) -> Vec3 {
 struct PointLight {
     position: Vec3,
     rgb_cd: Vec3,
+    /// Luminous intensity, cd.
+    luminous: f32,
     group: usize,
 }
 
@@ -47,6 +49,8 @@ struct DirectionalLight {
     /// Unit vector towards the light (opposite to its travel).
     to_light: Vec3,
     rgb_lux: Vec3,
+    /// Illuminance facing the light, lux.
+    luminous: f32,
     group: usize,
 }
 
@@ -60,6 +64,8 @@ pub(crate) struct RectLight {
     pub normal: Vec3,
     pub area_m2: f32,
     pub rgb_nit: Vec3,
+    /// Luminance, nit.
+    pub luminous: f32,
     pub group: usize,
 }
 
@@ -108,13 +114,18 @@ impl LightSet {
             match light.kind {
                 LightKind::Point => {
                     if let Some(position) = light.position.filter(|p| p.is_finite()) {
-                        set.points.push(PointLight { position, rgb_cd: rgb, group });
+                        set.points.push(PointLight { position, rgb_cd: rgb, luminous: intensity, group });
                         set.reference_nit[group] = set.reference_nit[group].max(intensity / PI);
                     }
                 }
                 LightKind::Directional => {
                     if let Some(d) = light.direction.map(Vec3::normalize_or_zero).filter(|d| *d != Vec3::ZERO) {
-                        set.directionals.push(DirectionalLight { to_light: -d, rgb_lux: rgb, group });
+                        set.directionals.push(DirectionalLight {
+                            to_light: -d,
+                            rgb_lux: rgb,
+                            luminous: intensity,
+                            group,
+                        });
                         set.reference_nit[group] = set.reference_nit[group].max(intensity / PI);
                     }
                 }
@@ -126,7 +137,16 @@ impl LightSet {
                     let area_m2 = cross.length();
                     let normal = light.direction.unwrap_or(cross).normalize_or_zero();
                     if area_m2 > 0.0 && normal != Vec3::ZERO && center.is_finite() {
-                        set.rects.push(RectLight { center, u, v, normal, area_m2, rgb_nit: rgb, group });
+                        set.rects.push(RectLight {
+                            center,
+                            u,
+                            v,
+                            normal,
+                            area_m2,
+                            rgb_nit: rgb,
+                            luminous: intensity,
+                            group,
+                        });
                         set.reference_nit[group] = set.reference_nit[group].max(intensity);
                     }
                 }
@@ -138,6 +158,14 @@ impl LightSet {
     /// Direct irradiance per group (lux per channel) at `point` on a surface whose geometric
     /// normal `ng` faces the side being lit and whose shading normal is `ns`; rect lights use
     /// `rect_n x rect_n` stratified samples.
+    ///
+    /// Light culling by Russian roulette (`cull` > 0): each light's unshadowed contribution
+    /// `b` (exact for point and directional lights, `min(pi L, L A / d^2)` for rects) is
+    /// compared with the group's total `B`; a light with `b < cull * B` is traced with
+    /// probability `p = b / (cull * B)` and weighted `1 / p`, so the estimate stays unbiased
+    /// while the lights of other rooms, nearly always behind walls, cost few shadow rays.
+    /// `p` depends only on ratios within a group, so culling commutes with light scaling.
+    #[allow(clippy::too_many_arguments)]
     #[must_use]
     pub fn direct(
         &self,
@@ -146,50 +174,48 @@ impl LightSet {
         ng: Vec3,
         ns: Vec3,
         rect_n: u32,
+        cull: f32,
         sampler: &mut Sampler,
     ) -> GroupRgb {
+        let mut total = [0.0f32; 2];
+        for light in &self.points {
+            total[light.group] += point_importance(light, point, ng, ns);
+        }
+        for light in &self.directionals {
+            total[light.group] += directional_importance(light, ng, ns);
+        }
+        for light in &self.rects {
+            total[light.group] += rect_importance(light, point, ns);
+        }
+        let keep = |b: f32, group: usize, sampler: &mut Sampler| roulette(b, total[group], cull, sampler);
         let mut e = [Vec3::ZERO; 2];
         let eps = ray_epsilon(point);
         let origin = point + ng * eps;
         for light in &self.points {
+            let Some(weight) = keep(point_importance(light, point, ng, ns), light.group, sampler) else { continue };
             let d = light.position - point;
             let dist2 = d.length_squared();
-            if dist2 <= 0.0 {
-                continue;
-            }
             let dist = dist2.sqrt();
             let dir = d / dist;
-            let cos = ns.dot(dir);
-            if cos <= 0.0 || ng.dot(dir) <= 0.0 {
-                continue;
-            }
             if !accel.occluded(origin, dir, dist - 2.0 * eps) {
-                e[light.group] += light.rgb_cd * (cos / dist2);
+                e[light.group] += light.rgb_cd * (weight * ns.dot(dir) / dist2);
             }
         }
         for light in &self.directionals {
-            let cos = ns.dot(light.to_light);
-            if cos <= 0.0 || ng.dot(light.to_light) <= 0.0 {
-                continue;
-            }
+            let Some(weight) = keep(directional_importance(light, ng, ns), light.group, sampler) else { continue };
             if !accel.occluded(origin, light.to_light, f32::INFINITY) {
-                e[light.group] += light.rgb_lux * cos;
+                e[light.group] += light.rgb_lux * (weight * ns.dot(light.to_light));
             }
         }
         let n = rect_n.max(1);
         let inv_count = 1.0 / (n * n) as f32;
         for light in &self.rects {
-            // Behind the emitter's plane nothing is lit (the sampler still advances so every
-            // point draws the same number of values).
-            let in_front = (point - light.center).dot(light.normal) > 0.0;
+            let Some(weight) = keep(rect_importance(light, point, ns), light.group, sampler) else { continue };
             let mut sum = Vec3::ZERO;
             for i in 0..n {
                 for j in 0..n {
                     let s = (i as f32 + sampler.uniform()) / n as f32 - 0.5;
                     let r = (j as f32 + sampler.uniform()) / n as f32 - 0.5;
-                    if !in_front {
-                        continue;
-                    }
                     let q = light.center + light.u * s + light.v * r;
                     let d = q - point;
                     let dist2 = d.length_squared();
@@ -208,7 +234,7 @@ impl LightSet {
                     }
                 }
             }
-            e[light.group] += sum * (light.area_m2 * inv_count);
+            e[light.group] += sum * (light.area_m2 * inv_count * weight);
         }
         e
     }
@@ -225,6 +251,56 @@ impl LightSet {
         }
         best
     }
+}
+
+/// Russian roulette for a light of importance `b` in a group of total `total`: `Some(weight)`
+/// when it is to be traced.
+fn roulette(b: f32, total: f32, cull: f32, sampler: &mut Sampler) -> Option<f32> {
+    if b <= 0.0 {
+        return None;
+    }
+    let p = if cull > 0.0 { b / (cull * total) } else { 1.0 };
+    if p >= 1.0 {
+        Some(1.0)
+    } else if sampler.uniform() < p {
+        Some(1.0 / p)
+    } else {
+        None
+    }
+}
+
+/// Unshadowed illuminance (lux) of a point light; 0 when it is behind the surface.
+fn point_importance(light: &PointLight, point: Vec3, ng: Vec3, ns: Vec3) -> f32 {
+    let d = light.position - point;
+    let dist2 = d.length_squared();
+    if dist2 <= 0.0 || ns.dot(d) <= 0.0 || ng.dot(d) <= 0.0 {
+        return 0.0;
+    }
+    light.luminous * ns.dot(d) / (dist2 * dist2.sqrt())
+}
+
+/// Unshadowed illuminance (lux) of a directional light.
+fn directional_importance(light: &DirectionalLight, ng: Vec3, ns: Vec3) -> f32 {
+    if ng.dot(light.to_light) <= 0.0 {
+        return 0.0;
+    }
+    light.luminous * ns.dot(light.to_light).max(0.0)
+}
+
+/// A rough size of a rect light's illuminance: `L A / d^2` from its centre, at most `pi L`
+/// (a whole hemisphere of that luminance); 0 when the point is behind the emitter or the
+/// emitter behind the surface.
+fn rect_importance(light: &RectLight, point: Vec3, ns: Vec3) -> f32 {
+    let to_point = point - light.center;
+    if to_point.dot(light.normal) <= 0.0 {
+        return 0.0;
+    }
+    let corners = [(-0.5, -0.5), (0.5, -0.5), (0.5, 0.5), (-0.5, 0.5)];
+    if corners.iter().all(|&(s, r)| ns.dot(light.center + light.u * s + light.v * r - point) <= 0.0) {
+        return 0.0;
+    }
+    let dist2 = to_point.length_squared().max(1e-12);
+    (light.luminous * light.area_m2 / dist2).min(PI * light.luminous)
 }
 
 /// How far to push a ray origin off a surface at `point` so it does not re-hit that surface:

@@ -77,6 +77,11 @@ pub enum RenderError {
 /// 1.52 lux); the day term (window light) is unchanged.
 pub const DEFAULT_INDIRECT_CLAMP: f32 = 4.0;
 
+/// Default [`RenderSettings::light_cull`]: lights giving less than a tenth of their group's
+/// unshadowed total at a point are traced stochastically (an engineering choice: in a house
+/// most such lights are in other rooms, behind walls).
+pub const DEFAULT_LIGHT_CULL: f32 = 0.1;
+
 /// Sample counts; a plain `Copy` struct with presets, each field a quality/time trade-off.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RenderSettings {
@@ -91,6 +96,9 @@ pub struct RenderSettings {
     /// Clamp of a bounce sample's radiance, in multiples of the group's reference radiance
     /// (see [`shade`]); `f32::INFINITY` for the unbiased, noisier estimate.
     pub indirect_clamp: f32,
+    /// Russian-roulette light culling threshold, a fraction of a group's total unshadowed
+    /// illuminance (see [`lights::LightSet::direct`]); 0 traces a shadow ray to every light.
+    pub light_cull: f32,
     /// Rays for the indirect term of [`Renderer::illuminance_lux`].
     pub probe_indirect_rays: u32,
     /// Rect light samples per axis for [`Renderer::illuminance_lux`].
@@ -109,6 +117,7 @@ impl RenderSettings {
             indirect_rays: 0,
             specular: false,
             indirect_clamp: DEFAULT_INDIRECT_CLAMP,
+            light_cull: DEFAULT_LIGHT_CULL,
             probe_indirect_rays: 16,
             probe_rect_samples_per_axis: 2,
             seed: 0,
@@ -124,6 +133,7 @@ impl RenderSettings {
             indirect_rays: 2,
             specular: true,
             indirect_clamp: DEFAULT_INDIRECT_CLAMP,
+            light_cull: DEFAULT_LIGHT_CULL,
             probe_indirect_rays: 64,
             probe_rect_samples_per_axis: 4,
             seed: 0,
@@ -139,6 +149,7 @@ impl RenderSettings {
             indirect_rays: 4,
             specular: true,
             indirect_clamp: DEFAULT_INDIRECT_CLAMP,
+            light_cull: DEFAULT_LIGHT_CULL,
             probe_indirect_rays: 256,
             probe_rect_samples_per_axis: 6,
             seed: 0,
@@ -351,6 +362,7 @@ impl<'a> Renderer<'a> {
             normal,
             normal,
             self.settings.probe_rect_samples_per_axis,
+            self.settings.light_cull,
             &mut sampler,
         );
         let indirect =

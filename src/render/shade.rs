@@ -145,6 +145,7 @@ impl Tracer<'_> {
             surface.geometric_normal,
             surface.shading_normal,
             1,
+            self.settings.light_cull,
             sampler,
         );
         scale(e, response.diffuse * std::f32::consts::FRAC_1_PI)
@@ -198,7 +199,15 @@ impl Tracer<'_> {
         let (p, ng, ns) = (surface.position, surface.geometric_normal, surface.shading_normal);
         let mut out = [Vec3::ZERO; 2];
         if response.diffuse != Vec3::ZERO {
-            let direct = self.lights.direct(self.accel, p, ng, ns, self.settings.rect_samples_per_axis, sampler);
+            let direct = self.lights.direct(
+                self.accel,
+                p,
+                ng,
+                ns,
+                self.settings.rect_samples_per_axis,
+                self.settings.light_cull,
+                sampler,
+            );
             let indirect = self.indirect_irradiance(p, ng, ns, self.settings.indirect_rays, sampler);
             out = scale(add(direct, indirect), response.diffuse * std::f32::consts::FRAC_1_PI);
         }
