@@ -8,7 +8,7 @@ use scene_gen::render::test_util::{
     add_material, add_mesh, box_primitive, camera, directional_light, empty_scene, point_light, quad, rect_light,
     room_of_boxes,
 };
-use scene_gen::render::{Camera, Frame, LightScale, RenderSettings, Renderer, measure_mean_illuminance};
+use scene_gen::render::{Camera, Frame, LightScale, RenderSettings, Renderer, measure_mean_illuminance, probe_points};
 use scene_gen::scene::{LightGroup, Object, ObjectClass, Primitive, Room, Scene, Semantic, Texture};
 
 const ALBEDO: f32 = 0.5;
@@ -471,4 +471,50 @@ fn light_culling_is_unbiased_and_saves_work() {
     assert!(
         exact.illuminance_lux(p, Vec3::Z, LightGroup::Night) != culled.illuminance_lux(p, Vec3::Z, LightGroup::Night)
     );
+}
+
+#[test]
+fn probes_cover_lit_rooms_and_avoid_furniture() {
+    let mut scene = empty_scene();
+    scene.wall_thickness_m = 0.2;
+    scene.rooms.push(Room { id: 0, room_type: "a".into(), min: Vec2::ZERO, max: Vec2::new(4.2, 3.2) });
+    scene.rooms.push(Room { id: 1, room_type: "b".into(), min: Vec2::new(4.2, 0.0), max: Vec2::new(8.4, 3.2) });
+    let mut lamp = point_light(LightGroup::Night, Vec3::new(1.0, 1.0, 2.5), 10.0);
+    lamp.room = Some(0);
+    scene.lights.push(lamp);
+    // Interior 4 x 3 m: an 8 x 6 grid; a 1 m tall cupboard covers the 2 x 2 cells of one corner.
+    scene.objects.push(Object {
+        id: 0,
+        class: ObjectClass::Table,
+        instance_id: 1,
+        room: 0,
+        asset: "table/box".into(),
+        min: Vec3::new(0.0, 0.0, 0.0),
+        max: Vec3::new(1.1, 1.1, 1.0),
+        yaw_deg: 0.0,
+        on: None,
+    });
+    let night = probe_points(&scene, LightGroup::Night, 0.75);
+    assert_eq!(night.len(), 8 * 6 - 4);
+    assert!(night.iter().all(|p| p.x < 4.2 && p.z == 0.75 && !(p.x < 1.1 && p.y < 1.1)));
+    // No day light names a room: every room is probed.
+    assert_eq!(probe_points(&scene, LightGroup::Day, 0.75).len(), 2 * 8 * 6 - 4);
+}
+
+#[test]
+fn generated_scenes_render_and_scale() {
+    use scene_gen::config::GeneratorConfig;
+    use scene_gen::library::Library;
+    let library = Library::embedded().unwrap();
+    let scene =
+        scene_gen::generate::generate(&GeneratorConfig { seed: 7, ..GeneratorConfig::default() }, &library).unwrap();
+    let settings = RenderSettings { probe_indirect_rays: 4, ..RenderSettings::preview() };
+    let renderer = Renderer::new(&scene, settings);
+    let room = &scene.rooms[0];
+    let cam = Camera { pixel_pitch_um: 40.0, ..camera(32, 24, room.center().extend(1.5), 30.0, -30.0) };
+    let frame = renderer.render(&cam).unwrap();
+    assert_no_nan(&frame);
+    assert!(frame.depth_m.iter().any(|d| d.is_finite()), "the floor is in view");
+    let scale = LightScale::to_targets(&renderer, 20.0, 2.0, 0.75).unwrap();
+    assert!(scale.day.is_finite() && scale.night.is_finite());
 }

@@ -376,15 +376,12 @@ impl<'a> Renderer<'a> {
 /// Spacing of the illuminance probe grid in each room (metres).
 pub const PROBE_SPACING_M: f32 = 0.5;
 
-/// Mean illuminance (lux) from `group` on upward-facing probes at `height_m` over the rooms
-/// that group lights (rooms with a light of the group; all rooms if none names a room), on a
-/// [`PROBE_SPACING_M`] grid of cell centres in each room's interior, skipping points inside an
-/// object's bounding box.
-///
-/// # Errors
-/// [`RenderError::NoProbePoints`] when no room has a free probe point.
-pub fn measure_mean_illuminance(renderer: &Renderer<'_>, group: LightGroup, height_m: f32) -> Result<f32, RenderError> {
-    let scene = renderer.scene;
+/// The illuminance probe points for `group` at `height_m`: over the rooms that group lights
+/// (rooms with a light of the group; all rooms if none names a room), the centres of a
+/// [`PROBE_SPACING_M`] grid over each room's interior, less the points inside an object's
+/// bounding box. In room order, then row by row.
+#[must_use]
+pub fn probe_points(scene: &Scene, group: LightGroup, height_m: f32) -> Vec<Vec3> {
     let lit: Vec<_> =
         scene.rooms.iter().filter(|r| scene.lights.iter().any(|l| l.group == group && l.room == Some(r.id))).collect();
     let rooms = if lit.is_empty() { scene.rooms.iter().collect() } else { lit };
@@ -392,26 +389,41 @@ pub fn measure_mean_illuminance(renderer: &Renderer<'_>, group: LightGroup, heig
     for room in rooms {
         let (lo, hi) = room.interior(scene.wall_thickness_m);
         let size = hi - lo;
-        let nx = (size.x / PROBE_SPACING_M).floor().max(1.0) as u32;
-        let ny = (size.y / PROBE_SPACING_M).floor().max(1.0) as u32;
-        if size.x <= 0.0 || size.y <= 0.0 {
+        if !(size.x > 0.0 && size.y > 0.0) {
             continue;
         }
+        // Cells of at least the spacing (less a rounding margin, so 4.0 m gives 8 cells even
+        // when it is 3.9999995 in f32).
+        let nx = (size.x / PROBE_SPACING_M + 1e-3).floor().max(1.0) as u32;
+        let ny = (size.y / PROBE_SPACING_M + 1e-3).floor().max(1.0) as u32;
         for j in 0..ny {
             for i in 0..nx {
                 let xy = lo + size * Vec2::new((i as f32 + 0.5) / nx as f32, (j as f32 + 0.5) / ny as f32);
                 let p = xy.extend(height_m);
-                let inside = scene.objects.iter().any(|o| p.cmpge(o.min).all() && p.cmple(o.max).all());
-                if !inside {
+                if !scene.objects.iter().any(|o| p.cmpge(o.min).all() && p.cmple(o.max).all()) {
                     points.push(p);
                 }
             }
         }
     }
+    points
+}
+
+/// Mean illuminance (lux) from `group` on upward-facing probes at [`probe_points`], each
+/// measured with [`Renderer::illuminance_lux`]. The TaCOS scenarios are 20 lux by day and
+/// 2 lux by night on the 0.75 m plane (`crate::lights::{DAY_TARGET_LUX, NIGHT_TARGET_LUX,
+/// TARGET_PLANE_M}`).
+///
+/// # Errors
+/// [`RenderError::NoProbePoints`] when no room has a free probe point.
+pub fn measure_mean_illuminance(renderer: &Renderer<'_>, group: LightGroup, height_m: f32) -> Result<f32, RenderError> {
+    let points = probe_points(renderer.scene, group, height_m);
     if points.is_empty() {
         return Err(RenderError::NoProbePoints);
     }
-    let sum: f64 = points.par_iter().map(|p| f64::from(renderer.illuminance_lux(*p, Vec3::Z, group))).sum();
+    // Summed in a fixed order (collect, then fold) so the mean does not depend on threads.
+    let values: Vec<f32> = points.par_iter().map(|p| renderer.illuminance_lux(*p, Vec3::Z, group)).collect();
+    let sum: f64 = values.iter().map(|&v| f64::from(v)).sum();
     Ok((sum / points.len() as f64) as f32)
 }
 
