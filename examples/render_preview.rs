@@ -4,8 +4,8 @@
 //! cargo run --release --example render_preview -- OUT_DIR
 //! ```
 //!
-//! Writes `day.png`, `night.png` (radiance scaled so the frame's 99th-percentile luminance is
-//! white, then sRGB-encoded: a preview, not a camera simulation), `depth.png` (0..10 m) and
+//! Writes `day.png`, `night.png` (radiance scaled so four times the frame's median luminance
+//! is white, then sRGB-encoded: a preview, not a camera simulation), `depth.png` (0..10 m) and
 //! `instances.png` (one grey level per instance id).
 
 use glam::Vec3;
@@ -17,7 +17,7 @@ use scene_gen::scene::LightGroup;
 fn encode(radiance: &[[f32; 3]], w: u32, h: u32) -> RgbImage {
     let mut lum: Vec<f32> = radiance.iter().map(|c| luminance(Vec3::from(*c))).collect();
     lum.sort_by(f32::total_cmp);
-    let white = lum[(lum.len() as f32 * 0.99) as usize].max(1e-6);
+    let white = (4.0 * lum[lum.len() / 2]).max(1e-6);
     let srgb = |v: f32| {
         let v = (v / white).clamp(0.0, 1.0);
         let e = if v <= 0.003_130_8 { 12.92 * v } else { 1.055 * v.powf(1.0 / 2.4) - 0.055 };
