@@ -518,3 +518,16 @@ fn generated_scenes_render_and_scale() {
     let scale = LightScale::to_targets(&renderer, 20.0, 2.0, 0.75).unwrap();
     assert!(scale.day.is_finite() && scale.night.is_finite());
 }
+
+#[test]
+fn one_bounce_from_a_sunlit_plane_fills_the_hemisphere() {
+    // Below the probe an (effectively infinite) plane of albedo rho lit by E0 has radiance
+    // rho E0 / pi in every direction, so a probe facing it receives E = pi L = rho E0.
+    let mut scene = floor_scene();
+    scene.lights.push(directional_light(LightGroup::Day, -Vec3::Z, 100.0));
+    let renderer = Renderer::new(&scene, RenderSettings::standard());
+    let e = renderer.illuminance_lux(Vec3::new(0.3, -0.2, 1.0), -Vec3::Z, LightGroup::Day);
+    assert_close(e, ALBEDO * 100.0, 0.002, "indirect illuminance from the plane");
+    // Facing up, the probe sees the sun directly and nothing bounces back down.
+    assert_close(renderer.illuminance_lux(Vec3::new(0.3, -0.2, 1.0), Vec3::Z, LightGroup::Day), 100.0, 1e-4, "direct");
+}
