@@ -16,7 +16,7 @@ use std::f32::consts::PI;
 use glam::Vec3;
 
 use super::accel::Accel;
-use super::{GroupRgb, Sampler, group_index};
+use super::{GroupRgb, Sampler, Strata, group_index};
 use crate::scene::{Light, LightKind};
 
 /// Luminance weights of linear sRGB primaries (ITU-R BT.709-6, item 3.2).
@@ -156,8 +156,8 @@ impl LightSet {
     }
 
     /// Direct irradiance per group (lux per channel) at `point` on a surface whose geometric
-    /// normal `ng` faces the side being lit and whose shading normal is `ns`; rect lights use
-    /// `rect_n x rect_n` stratified samples.
+    /// normal `ng` faces the side being lit and whose shading normal is `ns`; each rect light
+    /// gets `rect_samples` area samples placed by `rect_strata`.
     ///
     /// Light culling by Russian roulette (`cull` > 0): each light's unshadowed contribution
     /// `b` (exact for point and directional lights, `min(pi L, L A / d^2)` for rects) is
@@ -173,7 +173,8 @@ impl LightSet {
         point: Vec3,
         ng: Vec3,
         ns: Vec3,
-        rect_n: u32,
+        rect_samples: u32,
+        rect_strata: Strata,
         cull: f32,
         sampler: &mut Sampler,
     ) -> GroupRgb {
@@ -207,31 +208,28 @@ impl LightSet {
                 e[light.group] += light.rgb_lux * (weight * ns.dot(light.to_light));
             }
         }
-        let n = rect_n.max(1);
-        let inv_count = 1.0 / (n * n) as f32;
+        let count = rect_samples.max(1);
+        let inv_count = 1.0 / count as f32;
         for light in &self.rects {
             let Some(weight) = keep(rect_importance(light, point, ns), light.group, sampler) else { continue };
             let mut sum = Vec3::ZERO;
-            for i in 0..n {
-                for j in 0..n {
-                    let s = (i as f32 + sampler.uniform()) / n as f32 - 0.5;
-                    let r = (j as f32 + sampler.uniform()) / n as f32 - 0.5;
-                    let q = light.center + light.u * s + light.v * r;
-                    let d = q - point;
-                    let dist2 = d.length_squared();
-                    if dist2 <= 0.0 {
-                        continue;
-                    }
-                    let dist = dist2.sqrt();
-                    let dir = d / dist;
-                    let cos_surface = ns.dot(dir);
-                    let cos_light = -light.normal.dot(dir);
-                    if cos_surface <= 0.0 || cos_light <= 0.0 || ng.dot(dir) <= 0.0 {
-                        continue;
-                    }
-                    if !accel.occluded(origin, dir, dist - 2.0 * eps) {
-                        sum += light.rgb_nit * (cos_surface * cos_light / dist2);
-                    }
+            for m in 0..count {
+                let (a, b) = rect_strata.point(m, sampler);
+                let q = light.center + light.u * (a - 0.5) + light.v * (b - 0.5);
+                let d = q - point;
+                let dist2 = d.length_squared();
+                if dist2 <= 0.0 {
+                    continue;
+                }
+                let dist = dist2.sqrt();
+                let dir = d / dist;
+                let cos_surface = ns.dot(dir);
+                let cos_light = -light.normal.dot(dir);
+                if cos_surface <= 0.0 || cos_light <= 0.0 || ng.dot(dir) <= 0.0 {
+                    continue;
+                }
+                if !accel.occluded(origin, dir, dist - 2.0 * eps) {
+                    sum += light.rgb_nit * (cos_surface * cos_light / dist2);
                 }
             }
             e[light.group] += sum * (light.area_m2 * inv_count * weight);

@@ -181,6 +181,44 @@ impl Sampler {
     }
 }
 
+/// Where a point's samples (bounce directions, rect light positions) sit in a 2D point set
+/// shared by every camera sample of a pixel: sample `k` of this point is point
+/// `i = first + k * stride` of the set, and the `i`-th of `total` points is
+/// `((i + jitter) / total, frac(rotation + i / golden ratio))`, a jittered rank-1 (Fibonacci)
+/// lattice. Stratifying over the whole pixel rather than within each
+/// camera sample spreads a pixel's few bounce rays evenly over the hemisphere and its
+/// few rect light samples evenly over the rectangle.
+#[derive(Clone, Copy, Debug)]
+pub struct Strata {
+    /// Index of this point's first sample (the camera sample's index within the pixel).
+    pub first: u32,
+    /// Distance between this point's samples in the set (the camera samples per pixel), so
+    /// each camera sample gets samples spread over the whole domain.
+    pub stride: u32,
+    /// Samples in the whole set.
+    pub total: u32,
+    /// Cranley-Patterson rotation of the second coordinate, in [0, 1).
+    pub rotation: f32,
+}
+
+impl Strata {
+    /// A set of one point: both coordinates independent uniform numbers.
+    pub fn independent(sampler: &mut Sampler) -> Strata {
+        Strata { first: 0, stride: 1, total: 1, rotation: sampler.uniform() }
+    }
+
+    /// The `k`-th sample of this point, in [0, 1)^2.
+    pub fn point(&self, k: u32, sampler: &mut Sampler) -> (f32, f32) {
+        // 1 / golden ratio: the lattice generator with the most uniform 1D projections.
+        const INV_PHI: f64 = 0.618_033_988_749_894_9;
+        let i = self.first + k * self.stride.max(1);
+        let total = self.total.max(i + 1);
+        let u1 = ((i as f32 + sampler.uniform()) / total as f32).min(1.0 - f32::EPSILON);
+        let u2 = (f64::from(self.rotation) + f64::from(i) * INV_PHI).fract() as f32;
+        (u1, u2)
+    }
+}
+
 /// One rendered view. Buffers are row-major from the top-left pixel, `width * height` long.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Frame {
@@ -325,13 +363,20 @@ impl<'a> Renderer<'a> {
         let key = u64::from(y) * u64::from(camera.width_px) + u64::from(x);
         let mut sampler = Sampler::new(self.settings.seed, "render/pixel", key);
         let n = self.settings.samples_per_axis.max(1);
+        let rays = self.settings.indirect_rays;
+        let rect_samples = self.settings.rect_samples_per_axis.pow(2);
+        let rotation = sampler.uniform();
+        let rect_rotation = sampler.uniform();
         let mut sum = [Vec3::ZERO; 2];
         for j in 0..n {
             for i in 0..n {
                 let sx = (i as f32 + sampler.uniform()) / n as f32;
                 let sy = (j as f32 + sampler.uniform()) / n as f32;
                 let dir = camera.ray_direction(x as f32 + sx, y as f32 + sy);
-                let l = tracer.camera_ray(origin, dir, &mut sampler);
+                let strata = Strata { first: j * n + i, stride: n * n, total: n * n * rays, rotation };
+                let rect_strata =
+                    Strata { first: j * n + i, stride: n * n, total: n * n * rect_samples, rotation: rect_rotation };
+                let l = tracer.camera_ray(origin, dir, strata, rect_strata, &mut sampler);
                 sum[0] += l[0];
                 sum[1] += l[1];
             }
@@ -356,17 +401,20 @@ impl<'a> Renderer<'a> {
             .fold(0u64, |h, v| h.rotate_left(13) ^ crate::rng::fnv1a64(&v.to_bits().to_le_bytes()));
         let mut sampler = Sampler::new(self.settings.seed, "render/probe", key);
         let tracer = self.tracer();
+        let rect_samples = self.settings.probe_rect_samples_per_axis.pow(2);
         let direct = self.lights.direct(
             &self.accel,
             point,
             normal,
             normal,
-            self.settings.probe_rect_samples_per_axis,
+            rect_samples,
+            Strata { first: 0, stride: 1, total: rect_samples, rotation: sampler.uniform() },
             self.settings.light_cull,
             &mut sampler,
         );
-        let indirect =
-            tracer.indirect_irradiance(point, normal, normal, self.settings.probe_indirect_rays, &mut sampler);
+        let rays = self.settings.probe_indirect_rays;
+        let strata = Strata { first: 0, stride: 1, total: rays, rotation: sampler.uniform() };
+        let indirect = tracer.indirect_irradiance(point, normal, normal, rays, strata, &mut sampler);
         let g = group_index(group);
         let e = luminance(direct[g] + indirect[g]);
         if e.is_finite() { e.max(0.0) } else { 0.0 }

@@ -29,7 +29,7 @@ use glam::{Vec2, Vec3};
 
 use super::accel::{Accel, SurfacePoint};
 use super::lights::{LightSet, luminance, ray_epsilon};
-use super::{GroupRgb, RenderSettings, Sampler};
+use super::{GroupRgb, RenderSettings, Sampler, Strata};
 use crate::scene::{Material, Scene, Texture};
 
 /// Whether a material is glass (clear, left out of the BVH): name `glass*`, or a base-colour
@@ -145,24 +145,33 @@ impl Tracer<'_> {
             surface.geometric_normal,
             surface.shading_normal,
             1,
+            Strata::independent(sampler),
             self.settings.light_cull,
             sampler,
         );
         scale(e, response.diffuse * std::f32::consts::FRAC_1_PI)
     }
 
-    /// Indirect irradiance at a point from `rays` cosine-weighted bounce rays (stratified in
-    /// the polar coordinate), each bounce shaded with direct light only; emitters seen by a
-    /// bounce ray are not counted (direct light sampling already has them).
-    pub fn indirect_irradiance(&self, point: Vec3, ng: Vec3, ns: Vec3, rays: u32, sampler: &mut Sampler) -> GroupRgb {
+    /// Indirect irradiance at a point from `rays` cosine-weighted bounce rays, each bounce
+    /// shaded with direct light only; emitters seen by a bounce ray are not counted (direct
+    /// light sampling already has them). The rays take their places `strata.first..` of a
+    /// 2D point set spread over the whole pixel (see [`Strata`]).
+    pub fn indirect_irradiance(
+        &self,
+        point: Vec3,
+        ng: Vec3,
+        ns: Vec3,
+        rays: u32,
+        strata: Strata,
+        sampler: &mut Sampler,
+    ) -> GroupRgb {
         let mut sum = [Vec3::ZERO; 2];
         if rays == 0 {
             return sum;
         }
         let origin = point + ng * ray_epsilon(point);
         for k in 0..rays {
-            let u1 = (k as f32 + sampler.uniform()) / rays as f32;
-            let u2 = sampler.uniform();
+            let (u1, u2) = strata.point(k, sampler);
             let dir = cosine_direction(ns, u1, u2);
             if dir.dot(ng) <= 0.0 {
                 continue;
@@ -184,8 +193,16 @@ impl Tracer<'_> {
         scale(sum, Vec3::splat(std::f32::consts::PI / rays as f32))
     }
 
-    /// Radiance per group arriving along a camera ray, and the surface it hit.
-    pub fn camera_ray(&self, origin: Vec3, dir: Vec3, sampler: &mut Sampler) -> GroupRgb {
+    /// Radiance per group arriving along a camera ray; its bounce rays use `strata` and its
+    /// rect light samples `rect_strata`.
+    pub fn camera_ray(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        strata: Strata,
+        rect_strata: Strata,
+        sampler: &mut Sampler,
+    ) -> GroupRgb {
         let hit = self.accel.closest_hit(origin, dir, f32::INFINITY);
         let tmax = hit.map_or(f32::INFINITY, |h| h.t);
         if let Some((_, group, rgb)) = self.lights.emitter_seen(origin, dir, tmax) {
@@ -204,11 +221,12 @@ impl Tracer<'_> {
                 p,
                 ng,
                 ns,
-                self.settings.rect_samples_per_axis,
+                self.settings.rect_samples_per_axis.pow(2),
+                rect_strata,
                 self.settings.light_cull,
                 sampler,
             );
-            let indirect = self.indirect_irradiance(p, ng, ns, self.settings.indirect_rays, sampler);
+            let indirect = self.indirect_irradiance(p, ng, ns, self.settings.indirect_rays, strata, sampler);
             out = scale(add(direct, indirect), response.diffuse * std::f32::consts::FRAC_1_PI);
         }
         if self.settings.specular && response.specular != Vec3::ZERO {
