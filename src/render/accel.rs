@@ -10,6 +10,9 @@
 //! the test accepts zero, so a ray never slips between two triangles that share an edge; the
 //! edge functions are re-evaluated in f64 when they are exactly zero in f32, as the paper does.
 //!
+//! The build is sequential (obvhs' `parallel` feature is off), so the tree, and with it which
+//! of two coincident triangles a ray reports, is the same on every run and thread count.
+//!
 //! Glass (see [`crate::render::shade::is_transparent`]) is left out of the BVH: panes are
 //! modelled as perfectly clear, so daylight and the camera both see through them.
 

@@ -104,7 +104,12 @@ impl Camera {
     /// Unit world direction of the ray through continuous pixel coordinates `(px, py)`.
     #[must_use]
     pub fn ray_direction(&self, px: f32, py: f32) -> Vec3 {
-        let (forward, right, up) = self.basis();
+        self.ray_direction_in(self.basis(), px, py)
+    }
+
+    /// [`Camera::ray_direction`] with the [`Camera::basis`] computed once by the caller.
+    #[must_use]
+    pub fn ray_direction_in(&self, (forward, right, up): (Vec3, Vec3, Vec3), px: f32, py: f32) -> Vec3 {
         let pitch_mm = self.pixel_pitch_um * 1e-3;
         let x_mm = (px - self.width_px as f32 * 0.5) * pitch_mm;
         let y_mm = (self.height_px as f32 * 0.5 - py) * pitch_mm;

@@ -349,9 +349,10 @@ impl<'a> Renderer<'a> {
     fn render_pixel(&self, camera: &Camera, x: u32, y: u32) -> PixelOut {
         let tracer = self.tracer();
         let origin = camera.position;
-        let (forward, _, _) = camera.basis();
+        let basis = camera.basis();
+        let forward = basis.0;
         let mut out = PixelOut { depth_m: f32::INFINITY, ..PixelOut::default() };
-        let centre = camera.ray_direction(x as f32 + 0.5, y as f32 + 0.5);
+        let centre = camera.ray_direction_in(basis, x as f32 + 0.5, y as f32 + 0.5);
         if let Some(hit) = self.accel.closest_hit(origin, centre, f32::INFINITY) {
             let surface = self.accel.surface(&hit, origin, centre);
             let label = self.accel.label(surface.node);
@@ -372,7 +373,7 @@ impl<'a> Renderer<'a> {
             for i in 0..n {
                 let sx = (i as f32 + sampler.uniform()) / n as f32;
                 let sy = (j as f32 + sampler.uniform()) / n as f32;
-                let dir = camera.ray_direction(x as f32 + sx, y as f32 + sy);
+                let dir = camera.ray_direction_in(basis, x as f32 + sx, y as f32 + sy);
                 let strata = Strata { first: j * n + i, stride: n * n, total: n * n * rays, rotation };
                 let rect_strata =
                     Strata { first: j * n + i, stride: n * n, total: n * n * rect_samples, rotation: rect_rotation };
