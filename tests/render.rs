@@ -376,7 +376,7 @@ fn textures_are_decoded_and_tinted() {
         name: "orange".into(),
         width: 1,
         height: 1,
-        rgba8: vec![255, 128, 0, 255],
+        rgba8: [255u8, 128, 0, 255].into_iter().collect(),
         png: Vec::new(),
     });
     scene.geometry.materials[0].base_color_texture = Some(0);

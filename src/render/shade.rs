@@ -279,7 +279,8 @@ mod tests {
             name: "t".into(),
             width: 2,
             height: 1,
-            rgba8: vec![0, 0, 0, 255, 255, 255, 255, 255],
+            // Collected, so the test compiles whether the buffer is a Vec or an Arc<[u8]>.
+            rgba8: [0u8, 0, 0, 255, 255, 255, 255, 255].into_iter().collect(),
             png: Vec::new(),
         };
         assert!((sample_texture(&texture, Vec2::new(0.25, 0.5)).x - 0.0).abs() < 1e-6);
