@@ -18,6 +18,7 @@
 //!   ([`textures`]).
 //! * [`scene`]: the hub type; [`manifest`]: its `scene.json` form.
 //! * [`export`]: glTF/GLB, the plan picture, atomic writes.
+//! * [`render`]: the CPU ray tracer (radiance per light group, depth, instance/class ids).
 //! * [`sensor`]: the sensor catalog and the EMVA 1288 noise model (photons to DN), shared by the
 //!   renderer, the calibration and the gap workflow.
 //! * [`calibration`]: EMVA 1288 descriptors and photon-transfer CSVs to measured sensor
@@ -43,6 +44,7 @@ pub mod lights;
 pub mod manifest;
 pub mod materials;
 pub mod placement;
+pub mod render;
 pub mod rng;
 pub mod scene;
 pub mod sensor;

@@ -1,0 +1,198 @@
+//! A pinhole camera described by plain numbers (so it does not depend on the sensor catalog),
+//! and the radiance-to-sensor-illuminance conversion.
+//!
+//! The image plane sits `focal_mm` behind the pinhole and is `width_px * pixel_pitch_um` by
+//! `height_px * pixel_pitch_um` large, so the fields of view are
+//! `hfov = 2 atan(sensor_width / (2 f))` and `vfov = 2 atan(sensor_height / (2 f))` (square
+//! pixels, principal point at the image centre, no distortion). Pixel (0, 0) is the top-left;
+//! image x runs right and y down; pixel (x, y) covers `[x, x + 1) x [y, y + 1)` in continuous
+//! pixel coordinates.
+
+use glam::Vec3;
+
+use super::RenderError;
+
+/// Transmittance of a typical multi-element coated lens in the visible band, used when a
+/// camera spec gives none (assumed; real lenses measure 0.8..0.95).
+pub const DEFAULT_LENS_TRANSMITTANCE: f32 = 0.9;
+
+/// A pinhole camera in the world (Z up, metres).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Camera {
+    pub width_px: u32,
+    pub height_px: u32,
+    pub pixel_pitch_um: f32,
+    pub focal_mm: f32,
+    /// Only used by the sensor-plane conversion; a pinhole has no depth of field.
+    pub f_number: f32,
+    /// Centre of projection, world metres.
+    pub position: Vec3,
+    /// Heading: 0 looks along +X, counter-clockwise about +Z.
+    pub yaw_deg: f32,
+    /// Elevation of the optical axis, positive up.
+    pub pitch_deg: f32,
+    /// Apply the cos^4 natural fall-off in [`Camera::relative_illumination`].
+    pub vignetting: bool,
+}
+
+impl Camera {
+    /// Checks that every number is finite and in range (positive sizes, |pitch| <= 90 deg;
+    /// straight down is fine because roll is fixed by the yaw alone).
+    ///
+    /// # Errors
+    /// [`RenderError::BadCamera`] naming the first offending field.
+    pub fn validate(&self) -> Result<(), RenderError> {
+        let bad = |field: &'static str, why: &str| Err(RenderError::BadCamera { field, why: why.to_string() });
+        if self.width_px == 0 || self.height_px == 0 {
+            return bad("width_px/height_px", "must be at least 1");
+        }
+        for (field, v) in
+            [("pixel_pitch_um", self.pixel_pitch_um), ("focal_mm", self.focal_mm), ("f_number", self.f_number)]
+        {
+            if !(v.is_finite() && v > 0.0) {
+                return bad(field, &format!("must be a positive number, got {v}"));
+            }
+        }
+        if !self.position.is_finite() {
+            return bad("position", "must be finite");
+        }
+        if !self.yaw_deg.is_finite() {
+            return bad("yaw_deg", "must be finite");
+        }
+        if !(self.pitch_deg.is_finite() && self.pitch_deg.abs() <= 90.0) {
+            return bad("pitch_deg", &format!("must be within [-90, 90], got {}", self.pitch_deg));
+        }
+        Ok(())
+    }
+
+    /// Sensor width, millimetres.
+    #[must_use]
+    pub fn sensor_width_mm(&self) -> f32 {
+        self.width_px as f32 * self.pixel_pitch_um * 1e-3
+    }
+
+    /// Sensor height, millimetres.
+    #[must_use]
+    pub fn sensor_height_mm(&self) -> f32 {
+        self.height_px as f32 * self.pixel_pitch_um * 1e-3
+    }
+
+    /// Horizontal field of view, `2 atan(w / 2f)`.
+    #[must_use]
+    pub fn hfov_deg(&self) -> f32 {
+        2.0 * (self.sensor_width_mm() / (2.0 * self.focal_mm)).atan().to_degrees()
+    }
+
+    /// Vertical field of view, `2 atan(h / 2f)`.
+    #[must_use]
+    pub fn vfov_deg(&self) -> f32 {
+        2.0 * (self.sensor_height_mm() / (2.0 * self.focal_mm)).atan().to_degrees()
+    }
+
+    /// Unit (forward, right, up) of the camera in the world; roll is zero, so `right` is
+    /// horizontal.
+    #[must_use]
+    pub fn basis(&self) -> (Vec3, Vec3, Vec3) {
+        let (sy, cy) = self.yaw_deg.to_radians().sin_cos();
+        let (sp, cp) = self.pitch_deg.to_radians().sin_cos();
+        let forward = Vec3::new(cp * cy, cp * sy, sp);
+        let right = Vec3::new(sy, -cy, 0.0);
+        let up = right.cross(forward);
+        (forward, right, up)
+    }
+
+    /// Unit world direction of the ray through continuous pixel coordinates `(px, py)`.
+    #[must_use]
+    pub fn ray_direction(&self, px: f32, py: f32) -> Vec3 {
+        self.ray_direction_in(self.basis(), px, py)
+    }
+
+    /// [`Camera::ray_direction`] with the [`Camera::basis`] computed once by the caller.
+    #[must_use]
+    pub fn ray_direction_in(&self, (forward, right, up): (Vec3, Vec3, Vec3), px: f32, py: f32) -> Vec3 {
+        let pitch_mm = self.pixel_pitch_um * 1e-3;
+        let x_mm = (px - self.width_px as f32 * 0.5) * pitch_mm;
+        let y_mm = (self.height_px as f32 * 0.5 - py) * pitch_mm;
+        (forward * self.focal_mm + right * x_mm + up * y_mm).normalize()
+    }
+
+    /// Fraction of the on-axis sensor illuminance reaching continuous pixel coordinates
+    /// `(px, py)`: `cos^4` of the off-axis angle with [`Camera::vignetting`], else 1.
+    #[must_use]
+    pub fn relative_illumination(&self, px: f32, py: f32) -> f32 {
+        if !self.vignetting {
+            return 1.0;
+        }
+        let (forward, _, _) = self.basis();
+        let c = self.ray_direction(px, py).dot(forward);
+        (c * c) * (c * c)
+    }
+}
+
+/// Illuminance on the sensor (lux) behind a lens imaging a scene of luminance `luminance_nit`:
+/// the camera equation for an object far away compared with the focal length,
+/// `E = pi L T / (4 N^2) * R`, with `T` the lens transmittance, `N` the f-number and `R` the
+/// relative illumination (`cos^4` of the field angle for natural vignetting, 1 on axis); see
+/// S. F. Ray, *Applied Photographic Optics*, 3rd ed., Focal Press 2002, on image illuminance.
+/// The sensor model turns this into photons with the exposure time and pixel area.
+#[must_use]
+pub fn sensor_illuminance_lux(
+    luminance_nit: f32,
+    f_number: f32,
+    transmittance: f32,
+    relative_illumination: f32,
+) -> f32 {
+    std::f32::consts::PI * luminance_nit * transmittance * relative_illumination / (4.0 * f_number * f_number)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn camera() -> Camera {
+        Camera {
+            width_px: 640,
+            height_px: 480,
+            pixel_pitch_um: 5.0,
+            focal_mm: 4.0,
+            f_number: 2.0,
+            position: Vec3::new(0.0, 0.0, 1.0),
+            yaw_deg: 90.0,
+            pitch_deg: 0.0,
+            vignetting: true,
+        }
+    }
+
+    #[test]
+    fn fov_follows_sensor_and_focal_length() {
+        let c = camera();
+        // 3.2 mm wide sensor behind a 4 mm lens: 2 atan(0.4) = 43.6 deg.
+        assert!((c.hfov_deg() - 43.602).abs() < 0.01, "{}", c.hfov_deg());
+        assert!((c.vfov_deg() - 2.0 * (1.2f32 / 4.0).atan().to_degrees()).abs() < 1e-4);
+    }
+
+    #[test]
+    fn yaw_pitch_and_image_axes() {
+        let c = camera();
+        let centre = c.ray_direction(320.0, 240.0);
+        assert!((centre - Vec3::Y).length() < 1e-6, "yaw 90 looks along +Y, got {centre}");
+        // Looking along +Y with Z up, image right is +X.
+        assert!(c.ray_direction(640.0, 240.0).x > 0.0, "image x runs to the right");
+        assert!(c.ray_direction(320.0, 0.0).z > 0.0, "image y runs down, so row 0 looks up");
+        let up = Camera { pitch_deg: 30.0, yaw_deg: 0.0, ..c };
+        let d = up.ray_direction(320.0, 240.0);
+        assert!((d - Vec3::new(30f32.to_radians().cos(), 0.0, 30f32.to_radians().sin())).length() < 1e-6);
+        assert_eq!(c.relative_illumination(320.0, 240.0), 1.0);
+        assert!(c.relative_illumination(0.0, 0.0) < 0.9);
+        assert!(Camera { pitch_deg: 95.0, ..c }.validate().is_err());
+        assert!(c.validate().is_ok());
+    }
+
+    #[test]
+    fn camera_equation() {
+        // L = 100 nit at f/2 with a perfect lens: pi * 100 / 16.
+        let e = sensor_illuminance_lux(100.0, 2.0, 1.0, 1.0);
+        assert!((e - 19.634_954).abs() < 1e-4);
+        assert!((sensor_illuminance_lux(100.0, 4.0, 0.9, 0.5) - e * 0.9 * 0.5 / 4.0).abs() < 1e-5);
+    }
+}

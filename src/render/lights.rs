@@ -1,0 +1,309 @@
+//! The scene's lights prepared for shading, and direct illuminance with shadow rays.
+//!
+//! Units follow [`crate::scene::Light`]: point lights in candela, directional lights in lux on
+//! a surface facing them, rect lights in nit. A light's linear-RGB `color` is a tint: it is
+//! divided by its own luminance (ITU-R BT.709 / sRGB weights) so that the luminous quantity of a
+//! light of intensity `I` is exactly `I` whatever its colour; each RGB channel then carries
+//! `I * color / Y(color)`. All irradiance values here are per channel, in lux.
+//!
+//! * point: `E = I cos(theta) / d^2`, one shadow ray;
+//! * directional: `E = E_perp cos(theta)`, one shadow ray to infinity;
+//! * rect (one-sided Lambertian emitter of luminance `L`): `E = sum L cos(theta) cos(theta') dA / d^2`
+//!   over stratified jittered area samples, one shadow ray each (soft shadows).
+
+use std::f32::consts::PI;
+
+use glam::Vec3;
+
+use super::accel::Accel;
+use super::{GroupRgb, Sampler, Strata, group_index};
+use crate::scene::{Light, LightKind};
+
+/// Luminance weights of linear sRGB primaries (ITU-R BT.709-6, item 3.2).
+pub const LUMA_BT709: Vec3 = Vec3::new(0.2126, 0.7152, 0.0722);
+
+/// Luminance of a linear-sRGB triple.
+#[must_use]
+pub fn luminance(rgb: Vec3) -> f32 {
+    rgb.dot(LUMA_BT709)
+}
+
+/// A tint scaled to unit luminance (black for a non-positive tint).
+fn unit_luminance_tint(color: [f32; 3]) -> Vec3 {
+    let c = Vec3::from(color).max(Vec3::ZERO);
+    let y = luminance(c);
+    if y > 0.0 && y.is_finite() { c / y } else { Vec3::ZERO }
+}
+
+#[derive(Clone, Copy, Debug)]
+struct PointLight {
+    position: Vec3,
+    rgb_cd: Vec3,
+    /// Luminous intensity, cd.
+    luminous: f32,
+    group: usize,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct DirectionalLight {
+    /// Unit vector towards the light (opposite to its travel).
+    to_light: Vec3,
+    rgb_lux: Vec3,
+    /// Illuminance facing the light, lux.
+    luminous: f32,
+    group: usize,
+}
+
+/// A one-sided Lambertian rectangle.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct RectLight {
+    pub center: Vec3,
+    pub u: Vec3,
+    pub v: Vec3,
+    /// Unit normal of the emitting side.
+    pub normal: Vec3,
+    pub area_m2: f32,
+    pub rgb_nit: Vec3,
+    /// Luminance, nit.
+    pub luminous: f32,
+    pub group: usize,
+}
+
+impl RectLight {
+    /// Distance to the emitting face along a unit ray that meets it from the front, if it does.
+    pub fn hit_front(&self, origin: Vec3, direction: Vec3, tmax: f32) -> Option<f32> {
+        let denom = direction.dot(self.normal);
+        if denom >= 0.0 {
+            return None;
+        }
+        let t = (self.center - origin).dot(self.normal) / denom;
+        if !(t > 0.0 && t < tmax) {
+            return None;
+        }
+        let local = origin + direction * t - self.center;
+        let s = local.dot(self.u) / self.u.length_squared();
+        let r = local.dot(self.v) / self.v.length_squared();
+        (s.abs() <= 0.5 && r.abs() <= 0.5).then_some(t)
+    }
+}
+
+/// All usable lights of a scene; lights missing a field their kind needs are skipped.
+#[derive(Clone, Debug, Default)]
+pub struct LightSet {
+    points: Vec<PointLight>,
+    directionals: Vec<DirectionalLight>,
+    pub(crate) rects: Vec<RectLight>,
+    /// Per group, the brightest radiance a white Lambertian surface gets from one light at a
+    /// reference distance of 1 m (point: `I / pi`, directional: `E / pi`, rect: `L`); the unit
+    /// of the bounce clamp. Linear in the lights, so clamping commutes with [`super::LightScale`].
+    pub(crate) reference_nit: [f32; 2],
+}
+
+impl LightSet {
+    /// Prepares `lights`, each multiplied by `scale[group]`.
+    #[must_use]
+    pub fn new(lights: &[Light], scale: [f32; 2]) -> LightSet {
+        let mut set = LightSet::default();
+        for light in lights {
+            let group = group_index(light.group);
+            let intensity = light.intensity * scale[group];
+            if !(intensity.is_finite() && intensity > 0.0) {
+                continue;
+            }
+            let rgb = unit_luminance_tint(light.color) * intensity;
+            match light.kind {
+                LightKind::Point => {
+                    if let Some(position) = light.position.filter(|p| p.is_finite()) {
+                        set.points.push(PointLight { position, rgb_cd: rgb, luminous: intensity, group });
+                        set.reference_nit[group] = set.reference_nit[group].max(intensity / PI);
+                    }
+                }
+                LightKind::Directional => {
+                    if let Some(d) = light.direction.map(Vec3::normalize_or_zero).filter(|d| *d != Vec3::ZERO) {
+                        set.directionals.push(DirectionalLight {
+                            to_light: -d,
+                            rgb_lux: rgb,
+                            luminous: intensity,
+                            group,
+                        });
+                        set.reference_nit[group] = set.reference_nit[group].max(intensity / PI);
+                    }
+                }
+                LightKind::Rect => {
+                    let (Some(center), Some(u), Some(v)) = (light.position, light.rect_u, light.rect_v) else {
+                        continue;
+                    };
+                    let cross = u.cross(v);
+                    let area_m2 = cross.length();
+                    let normal = light.direction.unwrap_or(cross).normalize_or_zero();
+                    if area_m2 > 0.0 && normal != Vec3::ZERO && center.is_finite() {
+                        set.rects.push(RectLight {
+                            center,
+                            u,
+                            v,
+                            normal,
+                            area_m2,
+                            rgb_nit: rgb,
+                            luminous: intensity,
+                            group,
+                        });
+                        set.reference_nit[group] = set.reference_nit[group].max(intensity);
+                    }
+                }
+            }
+        }
+        set
+    }
+
+    /// Direct irradiance per group (lux per channel) at `point` on a surface whose geometric
+    /// normal `ng` faces the side being lit and whose shading normal is `ns`; each rect light
+    /// gets `rect_samples` area samples placed by `rect_strata`.
+    ///
+    /// Light culling by Russian roulette (`cull` > 0): each light's unshadowed contribution
+    /// `b` (exact for point and directional lights, `min(pi L, L A / d^2)` for rects) is
+    /// compared with the group's total `B`; a light with `b < cull * B` is traced with
+    /// probability `p = b / (cull * B)` and weighted `1 / p`, so the estimate stays unbiased
+    /// while the lights of other rooms, nearly always behind walls, cost few shadow rays.
+    /// `p` depends only on ratios within a group, so culling commutes with light scaling.
+    #[allow(clippy::too_many_arguments)]
+    #[must_use]
+    pub fn direct(
+        &self,
+        accel: &Accel,
+        point: Vec3,
+        ng: Vec3,
+        ns: Vec3,
+        rect_samples: u32,
+        rect_strata: Strata,
+        cull: f32,
+        sampler: &mut Sampler,
+    ) -> GroupRgb {
+        let mut total = [0.0f32; 2];
+        for light in &self.points {
+            total[light.group] += point_importance(light, point, ng, ns);
+        }
+        for light in &self.directionals {
+            total[light.group] += directional_importance(light, ng, ns);
+        }
+        for light in &self.rects {
+            total[light.group] += rect_importance(light, point, ns);
+        }
+        let keep = |b: f32, group: usize, sampler: &mut Sampler| roulette(b, total[group], cull, sampler);
+        let mut e = [Vec3::ZERO; 2];
+        let eps = ray_epsilon(point);
+        let origin = point + ng * eps;
+        for light in &self.points {
+            let Some(weight) = keep(point_importance(light, point, ng, ns), light.group, sampler) else { continue };
+            let d = light.position - point;
+            let dist2 = d.length_squared();
+            let dist = dist2.sqrt();
+            let dir = d / dist;
+            if !accel.occluded(origin, dir, dist - 2.0 * eps) {
+                e[light.group] += light.rgb_cd * (weight * ns.dot(dir) / dist2);
+            }
+        }
+        for light in &self.directionals {
+            let Some(weight) = keep(directional_importance(light, ng, ns), light.group, sampler) else { continue };
+            if !accel.occluded(origin, light.to_light, f32::INFINITY) {
+                e[light.group] += light.rgb_lux * (weight * ns.dot(light.to_light));
+            }
+        }
+        let count = rect_samples.max(1);
+        let inv_count = 1.0 / count as f32;
+        for light in &self.rects {
+            let Some(weight) = keep(rect_importance(light, point, ns), light.group, sampler) else { continue };
+            let mut sum = Vec3::ZERO;
+            for m in 0..count {
+                let (a, b) = rect_strata.point(m, sampler);
+                let q = light.center + light.u * (a - 0.5) + light.v * (b - 0.5);
+                let d = q - point;
+                let dist2 = d.length_squared();
+                if dist2 <= 0.0 {
+                    continue;
+                }
+                let dist = dist2.sqrt();
+                let dir = d / dist;
+                let cos_surface = ns.dot(dir);
+                let cos_light = -light.normal.dot(dir);
+                if cos_surface <= 0.0 || cos_light <= 0.0 || ng.dot(dir) <= 0.0 {
+                    continue;
+                }
+                if !accel.occluded(origin, dir, dist - 2.0 * eps) {
+                    sum += light.rgb_nit * (cos_surface * cos_light / dist2);
+                }
+            }
+            e[light.group] += sum * (light.area_m2 * inv_count * weight);
+        }
+        e
+    }
+
+    /// The first rect light emitter seen along a unit ray before `tmax`: (distance, group,
+    /// radiance in nit per channel).
+    #[must_use]
+    pub fn emitter_seen(&self, origin: Vec3, direction: Vec3, tmax: f32) -> Option<(f32, usize, Vec3)> {
+        let mut best: Option<(f32, usize, Vec3)> = None;
+        for light in &self.rects {
+            if let Some(t) = light.hit_front(origin, direction, best.map_or(tmax, |b| b.0)) {
+                best = Some((t, light.group, light.rgb_nit));
+            }
+        }
+        best
+    }
+}
+
+/// Russian roulette for a light of importance `b` in a group of total `total`: `Some(weight)`
+/// when it is to be traced.
+fn roulette(b: f32, total: f32, cull: f32, sampler: &mut Sampler) -> Option<f32> {
+    if b <= 0.0 {
+        return None;
+    }
+    let p = if cull > 0.0 { b / (cull * total) } else { 1.0 };
+    if p >= 1.0 {
+        Some(1.0)
+    } else if sampler.uniform() < p {
+        Some(1.0 / p)
+    } else {
+        None
+    }
+}
+
+/// Unshadowed illuminance (lux) of a point light; 0 when it is behind the surface.
+fn point_importance(light: &PointLight, point: Vec3, ng: Vec3, ns: Vec3) -> f32 {
+    let d = light.position - point;
+    let dist2 = d.length_squared();
+    if dist2 <= 0.0 || ns.dot(d) <= 0.0 || ng.dot(d) <= 0.0 {
+        return 0.0;
+    }
+    light.luminous * ns.dot(d) / (dist2 * dist2.sqrt())
+}
+
+/// Unshadowed illuminance (lux) of a directional light.
+fn directional_importance(light: &DirectionalLight, ng: Vec3, ns: Vec3) -> f32 {
+    if ng.dot(light.to_light) <= 0.0 {
+        return 0.0;
+    }
+    light.luminous * ns.dot(light.to_light).max(0.0)
+}
+
+/// A rough size of a rect light's illuminance: `L A / d^2` from its centre, at most `pi L`
+/// (a whole hemisphere of that luminance); 0 when the point is behind the emitter or the
+/// emitter behind the surface.
+fn rect_importance(light: &RectLight, point: Vec3, ns: Vec3) -> f32 {
+    let to_point = point - light.center;
+    if to_point.dot(light.normal) <= 0.0 {
+        return 0.0;
+    }
+    let corners = [(-0.5, -0.5), (0.5, -0.5), (0.5, 0.5), (-0.5, 0.5)];
+    if corners.iter().all(|&(s, r)| ns.dot(light.center + light.u * s + light.v * r - point) <= 0.0) {
+        return 0.0;
+    }
+    let dist2 = to_point.length_squared().max(1e-12);
+    (light.luminous * light.area_m2 / dist2).min(PI * light.luminous)
+}
+
+/// How far to push a ray origin off a surface at `point` so it does not re-hit that surface:
+/// relative to the coordinates' magnitude, since f32 spacing grows with them.
+#[must_use]
+pub fn ray_epsilon(point: Vec3) -> f32 {
+    1e-4 * (1.0 + point.abs().max_element())
+}
