@@ -1,6 +1,7 @@
 //! Command-line definitions and dispatch.
 
 mod generate;
+mod orb;
 
 use clap::{Parser, Subcommand};
 
@@ -38,7 +39,12 @@ pub struct Cli {
 }
 
 #[derive(Subcommand, Debug)]
-pub enum Command {}
+pub enum Command {
+    /// ORB keypoints and descriptors of an image, as OpenCV's ORB computes them.
+    Orb(orb::OrbArgs),
+    /// Cross-checked ORB matches between two images and their RANSAC fundamental-matrix inliers.
+    Match(orb::MatchArgs),
+}
 
 pub fn parse() -> Cli {
     Cli::parse()
@@ -47,5 +53,7 @@ pub fn parse() -> Cli {
 pub fn run(cli: Cli) -> Result<(), CliError> {
     match cli.command {
         None => generate::run(&cli.generate),
+        Some(Command::Orb(args)) => orb::run_orb(&args),
+        Some(Command::Match(args)) => orb::run_match(&args),
     }
 }
