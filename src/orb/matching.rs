@@ -17,15 +17,10 @@ pub fn hamming(a: &[u8; 32], b: &[u8; 32]) -> u32 {
     (0..4).map(|i| (w(a, i) ^ w(b, i)).count_ones()).sum()
 }
 
-/// Brute-force matching with cross-check, with the semantics of OpenCV's
-/// `BFMatcher(NORM_HAMMING, crossCheck=True).match` (core `batchDistance` with crosscheck):
-/// each train descriptor picks its nearest query (the first one on ties); each query then keeps,
-/// among the train descriptors that picked it, the nearest (the first on ties). Matches come in
-/// query order.
-///
-/// This differs from "mutual nearest neighbours" only on ties and when a query's own nearest
-/// train descriptor picked another query: OpenCV then pairs the query with the nearest train
-/// descriptor that did pick it.
+/// Brute-force matching with cross-check, as OpenCV's
+/// `BFMatcher(NORM_HAMMING, crossCheck=True).match`: query i and train j match when j is i's
+/// nearest train descriptor and i is j's nearest query descriptor, the first index winning ties
+/// on both sides (verified against OpenCV 5.0.0). Matches come in query order.
 #[must_use]
 pub fn match_cross_check(query: &[[u8; 32]], train: &[[u8; 32]]) -> Vec<Match> {
     if query.is_empty() || train.is_empty() {
@@ -35,26 +30,23 @@ pub fn match_cross_check(query: &[[u8; 32]], train: &[[u8; 32]]) -> Vec<Match> {
     // Train set as four arrays of 64-bit words (structure of arrays) so the inner loop vectorises.
     let word = |d: &[u8; 32], i: usize| u64::from_le_bytes(d[8 * i..8 * i + 8].try_into().unwrap_or([0; 8]));
     let t: [Vec<u64>; 4] = std::array::from_fn(|i| train.iter().map(|d| word(d, i)).collect());
-    let mut best_d = vec![u32::MAX; nt];
-    let mut best_q = vec![0u32; nt];
+    let mut col_d = vec![u32::MAX; nt];
+    let mut col_q = vec![0u32; nt];
     let mut row = vec![0u32; nt];
+    let mut nearest: Vec<(u32, u32)> = Vec::with_capacity(query.len());
     for (qi, q) in query.iter().enumerate() {
         let qw = [word(q, 0), word(q, 1), word(q, 2), word(q, 3)];
         distances_dispatch(&qw, &t, &mut row);
-        update_min(&row, qi as u32, &mut best_d, &mut best_q);
+        update_min(&row, qi as u32, &mut col_d, &mut col_q);
+        let m = row.iter().copied().min().unwrap_or(u32::MAX);
+        let j = row.iter().position(|&d| d == m).unwrap_or(0);
+        nearest.push((j as u32, m));
     }
-    let mut per_query: Vec<Option<(u32, u32)>> = vec![None; query.len()];
-    for j in 0..nt {
-        let (q, d) = (best_q[j] as usize, best_d[j]);
-        match per_query[q] {
-            Some((bd, _)) if bd <= d => {}
-            _ => per_query[q] = Some((d, j as u32)),
-        }
-    }
-    per_query
+    nearest
         .into_iter()
         .enumerate()
-        .filter_map(|(q, m)| m.map(|(distance, train)| Match { query: q as u32, train, distance }))
+        .filter(|&(qi, (j, _))| col_q[j as usize] == qi as u32)
+        .map(|(qi, (train, distance))| Match { query: qi as u32, train, distance })
         .collect()
 }
 

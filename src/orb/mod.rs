@@ -26,7 +26,7 @@ mod orientation;
 mod pyramid;
 mod ransac;
 
-pub use brief::{BLUR_KERNEL_Q8, PATTERN_31, descriptor_at};
+pub use brief::{BLUR_KERNEL, PATTERN_31, descriptor_at};
 pub use fast::{FastCorner, fast_detect};
 pub use harris::harris_response;
 pub use matching::{Match, hamming, match_cross_check};
