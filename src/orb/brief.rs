@@ -70,7 +70,7 @@ fn vblur(rows: &[f32], w: usize, out: &mut [u8]) {
         v += k[2] * (r[2][x] + r[4][x]);
         v += k[1] * (r[1][x] + r[5][x]);
         v += k[0] * (r[0][x] + r[6][x]);
-        out[x] = v.round_ties_even().clamp(0.0, 255.0) as u8;
+        out[x] = round_half_even(v).clamp(0.0, 255.0) as u8;
     }
 }
 
@@ -130,6 +130,52 @@ pub fn pattern() -> &'static [[i8; 4]; 256] {
 /// OpenCV's bit_pattern_31_ (BSD licence, see LICENSE-orb-pattern.txt beside it).
 pub const PATTERN_31: &str = include_str!("pattern_31.csv");
 
+/// Round half to even for |x| < 2^22 (the default FP rounding mode applied by adding and
+/// removing 1.5 * 2^23), as OpenCV's cvRound on x86; avoids a libm call where SSE4.1 is not
+/// enabled at compile time.
+#[inline(always)]
+fn round_half_even(x: f32) -> f32 {
+    const MAGIC: f32 = 12_582_912.0;
+    (x + MAGIC) - MAGIC
+}
+
+/// The pattern as f32 columns (x of all 512 points, then y), for the vectorised rotation.
+fn pattern_xy() -> &'static ([f32; 512], [f32; 512]) {
+    static XY: OnceLock<([f32; 512], [f32; 512])> = OnceLock::new();
+    XY.get_or_init(|| {
+        let mut xs = [0f32; 512];
+        let mut ys = [0f32; 512];
+        for (i, [x1, y1, x2, y2]) in pattern().iter().enumerate() {
+            xs[2 * i] = f32::from(*x1);
+            ys[2 * i] = f32::from(*y1);
+            xs[2 * i + 1] = f32::from(*x2);
+            ys[2 * i + 1] = f32::from(*y2);
+        }
+        (xs, ys)
+    })
+}
+
+/// Offsets (relative to the centre) of the 512 rotated, rounded pattern points.
+#[inline(always)]
+fn rotated_offsets(a: f32, b: f32, stride: i32, out: &mut [i32; 512]) {
+    const MAGIC: f32 = 12_582_912.0;
+    // Integer part of x + 1.5 * 2^23 sits in the low mantissa bits, offset by 0x4B40_0000.
+    const BIAS: i32 = 0x4B40_0000;
+    let (xs, ys) = pattern_xy();
+    for k in 0..512 {
+        let (px, py) = (xs[k], ys[k]);
+        let rx = ((px * a - py * b) + MAGIC).to_bits() as i32 - BIAS;
+        let ry = ((px * b + py * a) + MAGIC).to_bits() as i32 - BIAS;
+        out[k] = ry * stride + rx;
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn rotated_offsets_avx2(a: f32, b: f32, stride: i32, out: &mut [i32; 512]) {
+    rotated_offsets(a, b, stride, out);
+}
+
 /// The descriptor of level pixel (x, y) with orientation `angle_deg`, read from the blurred
 /// level: pattern points rotated by the angle in f32, rounded half to even, compared pairwise;
 /// bit j of byte i is 1 when I(p1) < I(p2) for pair 8 i + j.
@@ -140,19 +186,26 @@ pub fn descriptor_at(level: &Level, x: usize, y: usize, angle_deg: f32) -> [u8; 
     let b = f64::from(angle).sin() as f32;
     let centre = level.index(x as isize, y as isize) as isize;
     let stride = level.stride as isize;
-    let d = &level.data;
-    let value = |px: i8, py: i8| -> u8 {
-        let (px, py) = (f32::from(px), f32::from(py));
-        let rx = (px * a - py * b).round_ties_even() as isize;
-        let ry = (px * b + py * a).round_ties_even() as isize;
-        d[(centre + ry * stride + rx) as usize]
-    };
+    // The patch around the centre: rotated pattern points stay within 19 pixels of it.
+    let reach = 20 * stride + 20;
+    let d = &level.data[(centre - reach) as usize..=(centre + reach) as usize];
+    let mut offs = [0i32; 512];
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU supports AVX2 (checked just above).
+        unsafe { rotated_offsets_avx2(a, b, stride as i32, &mut offs) };
+    } else {
+        rotated_offsets(a, b, stride as i32, &mut offs);
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    rotated_offsets(a, b, stride as i32, &mut offs);
+    let value = |k: usize| d[(reach + offs[k] as isize) as usize];
     let mut desc = [0u8; 32];
     for (i, byte) in desc.iter_mut().enumerate() {
         let mut v = 0u8;
         for j in 0..8 {
-            let [x1, y1, x2, y2] = pattern()[8 * i + j];
-            v |= u8::from(value(x1, y1) < value(x2, y2)) << j;
+            let k = 2 * (8 * i + j);
+            v |= u8::from(value(k) < value(k + 1)) << j;
         }
         *byte = v;
     }
@@ -169,6 +222,15 @@ mod tests {
         let sum: f64 = g.iter().sum();
         for (k, v) in BLUR_KERNEL.iter().zip(&g) {
             assert_eq!(*k, (v / sum) as f32);
+        }
+    }
+
+    #[test]
+    fn magic_rounding_is_half_to_even() {
+        for (x, want) in
+            [(0.5f32, 0.0f32), (1.5, 2.0), (2.5, 2.0), (-0.5, 0.0), (-1.5, -2.0), (3.49, 3.0), (-7.51, -8.0)]
+        {
+            assert_eq!(round_half_even(x), want, "{x}");
         }
     }
 

@@ -36,6 +36,8 @@ pub const CIRCLE: [(isize, isize); 16] = [
 pub(crate) struct Scratch {
     scores: Vec<u8>,
     flags: Vec<u8>,
+    bright: Vec<u16>,
+    dark: Vec<u16>,
 }
 
 /// True when the 16-bit cyclic mask has a run of at least 9 set bits.
@@ -50,54 +52,77 @@ fn has_run9(mask: u32) -> bool {
 
 /// OpenCV's FAST-9 score of a pixel given its 16 circle differences `d = centre - p`: the best,
 /// over 9-pixel arcs and both polarities, of the smallest difference on the arc, minus one.
+/// Arc minima by doubling windows (2, 4, 8, then 9) over the circle written out twice.
 #[inline]
 fn score_of(d: &[i16; 16]) -> i16 {
+    let mut e = [0i16; 32];
+    let mut n = [0i16; 32];
+    for i in 0..32 {
+        e[i] = d[i & 15];
+        n[i] = -d[i & 15];
+    }
     let mut best = i16::MIN;
-    for s in 0..16 {
-        let mut lo = i16::MAX;
-        let mut hi = i16::MIN;
-        for j in 0..9 {
-            let v = d[(s + j) & 15];
-            lo = lo.min(v);
-            hi = hi.max(v);
+    for v in [&e, &n] {
+        let mut m2 = [0i16; 31];
+        for i in 0..31 {
+            m2[i] = v[i].min(v[i + 1]);
         }
-        best = best.max(lo).max(-hi);
+        let mut m4 = [0i16; 29];
+        for i in 0..29 {
+            m4[i] = m2[i].min(m2[i + 2]);
+        }
+        for i in 0..16 {
+            let m9 = m4[i].min(m4[i + 4]).min(v[i + 8]);
+            best = best.max(m9);
+        }
     }
     best - 1
 }
 
-/// Compass-point pre-test over a run of pixels: a 9-arc contains two neighbouring compass points
-/// (0/4/8/12), so a pixel needs two neighbouring ones brighter than c + t or darker than c - t.
-/// Written as a plain loop over u8 so the compiler vectorises it.
+/// Builds, for a run of `n` pixels, the 16-bit masks of circle pixels brighter than c + t and
+/// darker than c - t, and flags the pixels where either mask holds a 9-run. Plain loops over
+/// slices so the compiler vectorises them; `circle[k]` is the slice of circle pixel k.
 #[inline(always)]
-fn compass_flags(c: &[u8], down: &[u8], right: &[u8], up: &[u8], left: &[u8], t: u8, out: &mut [u8]) {
+fn corner_flags(c: &[u8], circle: &[&[u8]; 16], t: u8, bright: &mut [u16], dark: &mut [u16], out: &mut [u8]) {
     let n = out.len();
-    let (c, down, right, up, left) = (&c[..n], &down[..n], &right[..n], &up[..n], &left[..n]);
+    let (c, bright, dark) = (&c[..n], &mut bright[..n], &mut dark[..n]);
+    bright.fill(0);
+    dark.fill(0);
+    for (k, src) in circle.iter().enumerate() {
+        let src = &src[..n];
+        for i in 0..n {
+            let hi = c[i].saturating_add(t);
+            let lo = c[i].saturating_sub(t);
+            bright[i] |= u16::from(src[i] > hi) << k;
+            dark[i] |= u16::from(src[i] < lo) << k;
+        }
+    }
     for i in 0..n {
-        let hi = c[i].saturating_add(t);
-        let lo = c[i].saturating_sub(t);
-        let (bd, br, bu, bl) = (down[i] > hi, right[i] > hi, up[i] > hi, left[i] > hi);
-        let (dd, dr, du, dl) = (down[i] < lo, right[i] < lo, up[i] < lo, left[i] < lo);
-        let b = (bd & br) | (br & bu) | (bu & bl) | (bl & bd);
-        let k = (dd & dr) | (dr & du) | (du & dl) | (dl & dd);
-        out[i] = u8::from(b | k);
+        out[i] = u8::from(has_run9(u32::from(bright[i])) | has_run9(u32::from(dark[i])));
     }
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn compass_flags_avx2(c: &[u8], down: &[u8], right: &[u8], up: &[u8], left: &[u8], t: u8, out: &mut [u8]) {
-    compass_flags(c, down, right, up, left, t, out);
+unsafe fn corner_flags_avx2(
+    c: &[u8],
+    circle: &[&[u8]; 16],
+    t: u8,
+    bright: &mut [u16],
+    dark: &mut [u16],
+    out: &mut [u8],
+) {
+    corner_flags(c, circle, t, bright, dark, out);
 }
 
-fn compass_dispatch(c: &[u8], down: &[u8], right: &[u8], up: &[u8], left: &[u8], t: u8, out: &mut [u8]) {
+fn corner_flags_dispatch(c: &[u8], circle: &[&[u8]; 16], t: u8, bright: &mut [u16], dark: &mut [u16], out: &mut [u8]) {
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: the CPU supports AVX2 (checked just above).
-        unsafe { compass_flags_avx2(c, down, right, up, left, t, out) };
+        unsafe { corner_flags_avx2(c, circle, t, bright, dark, out) };
         return;
     }
-    compass_flags(c, down, right, up, left, t, out);
+    corner_flags(c, circle, t, bright, dark, out);
 }
 
 /// FAST-9 corners of a whole level with threshold `t` (strict), 3x3 non-maximum suppression, and
@@ -128,6 +153,8 @@ pub(crate) fn detect_in(level: &Level, t: u8, edge: usize, scratch: &mut Scratch
     scratch.scores.resize(w * h, 0);
     scratch.flags.clear();
     scratch.flags.resize(x1 - x0, 0);
+    scratch.bright.resize(x1 - x0, 0);
+    scratch.dark.resize(x1 - x0, 0);
     let stride = level.stride as isize;
     let offs: [isize; 16] = CIRCLE.map(|(dx, dy)| dy * stride + dx);
     let data = &level.data;
@@ -135,15 +162,16 @@ pub(crate) fn detect_in(level: &Level, t: u8, edge: usize, scratch: &mut Scratch
     let n = x1 - x0;
     for y in y0..y1 {
         let row = level.index(x0 as isize, y as isize);
-        let up = row - 3 * level.stride;
-        let down = row + 3 * level.stride;
-        compass_dispatch(
+        let circle: [&[u8]; 16] = std::array::from_fn(|k| {
+            let p = (row as isize + offs[k]) as usize;
+            &data[p..p + n]
+        });
+        corner_flags_dispatch(
             &data[row..row + n],
-            &data[down..down + n],
-            &data[row + 3..row + 3 + n],
-            &data[up..up + n],
-            &data[row - 3..row - 3 + n],
+            &circle,
             t,
+            &mut scratch.bright,
+            &mut scratch.dark,
             &mut scratch.flags,
         );
         let flags = &scratch.flags;
@@ -156,24 +184,11 @@ pub(crate) fn detect_in(level: &Level, t: u8, edge: usize, scratch: &mut Scratch
             }
             if flags[i] != 0 {
                 let p = row + i;
-                let c = data[p];
-                let hi = c.saturating_add(t);
-                let lo = c.saturating_sub(t);
-                let mut bright = 0u32;
-                let mut dark = 0u32;
-                let mut d = [0i16; 16];
-                for (k, &o) in offs.iter().enumerate() {
-                    let v = data[(p as isize + o) as usize];
-                    bright |= u32::from(v > hi) << k;
-                    dark |= u32::from(v < lo) << k;
-                    d[k] = i16::from(c) - i16::from(v);
-                }
-                if has_run9(bright) || has_run9(dark) {
-                    let s = score_of(&d);
-                    let x = x0 + i;
-                    scratch.scores[y * w + x] = s as u8;
-                    candidates.push((x as u32, y as u32));
-                }
+                let c = i16::from(data[p]);
+                let d: [i16; 16] = std::array::from_fn(|k| c - i16::from(circle[k][i]));
+                let x = x0 + i;
+                scratch.scores[y * w + x] = score_of(&d) as u8;
+                candidates.push((x as u32, y as u32));
             }
             i += 1;
         }

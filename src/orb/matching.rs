@@ -36,11 +36,7 @@ pub fn match_cross_check(query: &[[u8; 32]], train: &[[u8; 32]]) -> Vec<Match> {
     let mut nearest: Vec<(u32, u32)> = Vec::with_capacity(query.len());
     for (qi, q) in query.iter().enumerate() {
         let qw = [word(q, 0), word(q, 1), word(q, 2), word(q, 3)];
-        distances_dispatch(&qw, &t, &mut row);
-        update_min(&row, qi as u32, &mut col_d, &mut col_q);
-        let m = row.iter().copied().min().unwrap_or(u32::MAX);
-        let j = row.iter().position(|&d| d == m).unwrap_or(0);
-        nearest.push((j as u32, m));
+        nearest.push(query_row_dispatch(&qw, &t, &mut row, qi as u32, &mut col_d, &mut col_q));
     }
     nearest
         .into_iter()
@@ -50,54 +46,80 @@ pub fn match_cross_check(query: &[[u8; 32]], train: &[[u8; 32]]) -> Vec<Match> {
         .collect()
 }
 
+/// Distances of one query to every train descriptor; folds them into the per-train minima
+/// (first query wins ties) and returns the query's nearest train index and distance (first wins).
 #[inline(always)]
-fn distances(q: &[u64; 4], t: &[Vec<u64>; 4], out: &mut [u32]) {
-    let n = out.len();
+fn query_row(
+    q: &[u64; 4],
+    t: &[Vec<u64>; 4],
+    row: &mut [u32],
+    qi: u32,
+    col_d: &mut [u32],
+    col_q: &mut [u32],
+) -> (u32, u32) {
+    let n = row.len();
     let (t0, t1, t2, t3) = (&t[0][..n], &t[1][..n], &t[2][..n], &t[3][..n]);
+    let (cd, cq) = (&mut col_d[..n], &mut col_q[..n]);
+    let mut m = u32::MAX;
     for j in 0..n {
-        out[j] = (q[0] ^ t0[j]).count_ones()
+        let d = (q[0] ^ t0[j]).count_ones()
             + (q[1] ^ t1[j]).count_ones()
             + (q[2] ^ t2[j]).count_ones()
             + (q[3] ^ t3[j]).count_ones();
+        row[j] = d;
+        let better = d < cd[j];
+        cd[j] = if better { d } else { cd[j] };
+        cq[j] = if better { qi } else { cq[j] };
+        m = m.min(d);
     }
-}
-
-#[inline(always)]
-fn update_min(row: &[u32], qi: u32, best_d: &mut [u32], best_q: &mut [u32]) {
-    let n = row.len();
-    let (bd, bq) = (&mut best_d[..n], &mut best_q[..n]);
-    for j in 0..n {
-        let better = row[j] < bd[j];
-        bd[j] = if better { row[j] } else { bd[j] };
-        bq[j] = if better { qi } else { bq[j] };
-    }
+    let j = row.iter().position(|&d| d == m).unwrap_or(0);
+    (j as u32, m)
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,popcnt")]
-unsafe fn distances_avx2(q: &[u64; 4], t: &[Vec<u64>; 4], out: &mut [u32]) {
-    distances(q, t, out);
+unsafe fn query_row_avx2(
+    q: &[u64; 4],
+    t: &[Vec<u64>; 4],
+    row: &mut [u32],
+    qi: u32,
+    cd: &mut [u32],
+    cq: &mut [u32],
+) -> (u32, u32) {
+    query_row(q, t, row, qi, cd, cq)
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f,avx512bw,avx512vl,avx512vpopcntdq,popcnt")]
-unsafe fn distances_avx512(q: &[u64; 4], t: &[Vec<u64>; 4], out: &mut [u32]) {
-    distances(q, t, out);
+unsafe fn query_row_avx512(
+    q: &[u64; 4],
+    t: &[Vec<u64>; 4],
+    row: &mut [u32],
+    qi: u32,
+    cd: &mut [u32],
+    cq: &mut [u32],
+) -> (u32, u32) {
+    query_row(q, t, row, qi, cd, cq)
 }
 
-fn distances_dispatch(q: &[u64; 4], t: &[Vec<u64>; 4], out: &mut [u32]) {
+fn query_row_dispatch(
+    q: &[u64; 4],
+    t: &[Vec<u64>; 4],
+    row: &mut [u32],
+    qi: u32,
+    cd: &mut [u32],
+    cq: &mut [u32],
+) -> (u32, u32) {
     #[cfg(target_arch = "x86_64")]
     {
         if std::arch::is_x86_feature_detected!("avx512vpopcntdq") && std::arch::is_x86_feature_detected!("avx512vl") {
             // SAFETY: the CPU supports these features (checked just above).
-            unsafe { distances_avx512(q, t, out) };
-            return;
+            return unsafe { query_row_avx512(q, t, row, qi, cd, cq) };
         }
         if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("popcnt") {
             // SAFETY: the CPU supports AVX2 and POPCNT (checked just above).
-            unsafe { distances_avx2(q, t, out) };
-            return;
+            return unsafe { query_row_avx2(q, t, row, qi, cd, cq) };
         }
     }
-    distances(q, t, out);
+    query_row(q, t, row, qi, cd, cq)
 }
