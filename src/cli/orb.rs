@@ -56,7 +56,10 @@ fn load_gray(path: &Path) -> Result<image::GrayImage, CliError> {
     })
 }
 
-fn detect(path: &Path, features: usize) -> Result<(image::GrayImage, Vec<KeyPoint>, Vec<[u8; 32]>), CliError> {
+/// An image with its keypoints and descriptors.
+type Detected = (image::GrayImage, Vec<KeyPoint>, Vec<[u8; 32]>);
+
+fn detect(path: &Path, features: usize) -> Result<Detected, CliError> {
     let img = load_gray(path)?;
     let (k, d) = Orb::with_features(features)
         .detect_and_compute(&img)

@@ -204,7 +204,7 @@ fn check_view(img: &GrayView<'_>) -> Result<(), OrbError> {
     if img.width == 0 || img.height == 0 {
         return Err(OrbError::Empty { width: img.width, height: img.height });
     }
-    let need = img.width.checked_mul(img.height).unwrap_or(usize::MAX);
+    let need = img.width.saturating_mul(img.height);
     if img.data.len() != need {
         return Err(OrbError::BufferSize { got: img.data.len(), need, width: img.width, height: img.height });
     }

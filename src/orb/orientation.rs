@@ -6,11 +6,16 @@ use super::pyramid::Level;
 /// patch size 31, made symmetric in x and y).
 pub const UMAX_31: [i32; 16] = [15, 15, 15, 15, 14, 14, 14, 13, 13, 12, 11, 10, 9, 8, 6, 3];
 
-// OpenCV's fastAtan2 polynomial coefficients (core/mathfuncs_core), already in degrees.
+// OpenCV's fastAtan2 polynomial coefficients (core/mathfuncs_core), already in degrees. The
+// literals are OpenCV's own digits; rounding them to f32 is what OpenCV does too.
 const RAD2DEG: f32 = (180.0 / std::f64::consts::PI) as f32;
+#[allow(clippy::excessive_precision)]
 const ATAN_P1: f32 = 0.999_787_841_279_480_7_f32 * RAD2DEG;
+#[allow(clippy::excessive_precision)]
 const ATAN_P3: f32 = -0.325_808_397_464_097_5_f32 * RAD2DEG;
+#[allow(clippy::excessive_precision)]
 const ATAN_P5: f32 = 0.155_578_651_846_328_1_f32 * RAD2DEG;
+#[allow(clippy::excessive_precision)]
 const ATAN_P7: f32 = -0.044_326_555_547_921_28_f32 * RAD2DEG;
 
 /// OpenCV's `fastAtan2(y, x)`: degrees in [0, 360), about 0.3 degree accurate, in f32 with
