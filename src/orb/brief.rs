@@ -26,20 +26,27 @@ pub const BLUR_KERNEL: [f32; 7] = [
 pub(crate) fn blur_level(level: &mut Level, buf: &mut Vec<f32>) {
     let (w, h) = (level.width, level.height);
     assert!(level.border >= 3, "blur needs 3 pixels of padding");
-    let rows = h + 6;
+    // A ring of 8 horizontally filtered rows (row r lives in slot r % 8) keeps the working set in
+    // cache; output row y needs filtered rows y - 3 ..= y + 3, and is written only after the
+    // source rows it needs were filtered (source row y + 3 is read before row y is overwritten).
     buf.clear();
-    buf.resize(rows * w, 0.0);
-    for r in 0..rows {
-        let start = level.index(-3, r as isize - 3);
-        let src = &level.data[start..start + w + 6];
-        let out = &mut buf[r * w..(r + 1) * w];
-        blur_dispatch_h(src, out);
+    buf.resize(8 * w, 0.0);
+    let filter_row = |level: &Level, buf: &mut [f32], r: isize| {
+        let start = level.index(-3, r);
+        let slot = (r + 3) as usize % 8;
+        blur_dispatch_h(&level.data[start..start + w + 6], &mut buf[slot * w..(slot + 1) * w]);
+    };
+    for r in -3..3 {
+        filter_row(level, buf, r);
     }
-    for y in 0..h {
-        let start = level.index(0, y as isize);
-        let out = &mut level.data[start..start + w];
-        let b = &buf[y * w..(y + 7) * w];
-        blur_dispatch_v(b, w, out);
+    for y in 0..h as isize {
+        filter_row(level, buf, y + 3);
+        let rows: [&[f32]; 7] = std::array::from_fn(|k| {
+            let slot = (y as usize + k) % 8;
+            &buf[slot * w..(slot + 1) * w]
+        });
+        let start = level.index(0, y);
+        blur_dispatch_v(rows, &mut level.data[start..start + w]);
     }
 }
 
@@ -60,17 +67,19 @@ fn hblur(src: &[u8], out: &mut [f32]) {
     }
 }
 
-/// `rows` holds 7 consecutive rows of `w` values; output row is the middle one.
+/// `rows` are 7 consecutive filtered rows; the output row is the middle one.
 #[inline(always)]
-fn vblur(rows: &[f32], w: usize, out: &mut [u8]) {
+fn vblur(rows: [&[f32]; 7], out: &mut [u8]) {
     let k = BLUR_KERNEL;
-    let r: [&[f32]; 7] = std::array::from_fn(|i| &rows[i * w..i * w + out.len()]);
+    let r: [&[f32]; 7] = rows.map(|row| &row[..out.len()]);
     for x in 0..out.len() {
         let mut v = k[3] * r[3][x];
         v += k[2] * (r[2][x] + r[4][x]);
         v += k[1] * (r[1][x] + r[5][x]);
         v += k[0] * (r[0][x] + r[6][x]);
-        out[x] = round_half_even(v).clamp(0.0, 255.0) as u8;
+        let r = round_half_even(v).clamp(0.0, 255.0);
+        // SAFETY: r is finite (sums of finite products) and within 0..=255 after the clamp.
+        out[x] = unsafe { r.to_int_unchecked::<i32>() } as u8;
     }
 }
 
@@ -82,8 +91,8 @@ unsafe fn hblur_avx2(src: &[u8], out: &mut [f32]) {
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn vblur_avx2(rows: &[f32], w: usize, out: &mut [u8]) {
-    vblur(rows, w, out);
+unsafe fn vblur_avx2(rows: [&[f32]; 7], out: &mut [u8]) {
+    vblur(rows, out);
 }
 
 fn blur_dispatch_h(src: &[u8], out: &mut [f32]) {
@@ -96,14 +105,14 @@ fn blur_dispatch_h(src: &[u8], out: &mut [f32]) {
     hblur(src, out);
 }
 
-fn blur_dispatch_v(rows: &[f32], w: usize, out: &mut [u8]) {
+fn blur_dispatch_v(rows: [&[f32]; 7], out: &mut [u8]) {
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: the CPU supports AVX2 (checked just above).
-        unsafe { vblur_avx2(rows, w, out) };
+        unsafe { vblur_avx2(rows, out) };
         return;
     }
-    vblur(rows, w, out);
+    vblur(rows, out);
 }
 
 /// The 256 point pairs (x1, y1, x2, y2) of OpenCV's 31x31 rBRIEF pattern, in bit order.

@@ -36,8 +36,8 @@ pub const CIRCLE: [(isize, isize); 16] = [
 pub(crate) struct Scratch {
     scores: Vec<u8>,
     flags: Vec<u8>,
-    bright: Vec<u16>,
-    dark: Vec<u16>,
+    bright: Vec<u8>,
+    dark: Vec<u8>,
 }
 
 /// True when the 16-bit cyclic mask has a run of at least 9 set bits.
@@ -53,69 +53,62 @@ fn has_run9(mask: u32) -> bool {
 /// OpenCV's FAST-9 score of a pixel given its 16 circle differences `d = centre - p`: the best,
 /// over 9-pixel arcs and both polarities, of the smallest difference on the arc, minus one.
 /// Arc minima by doubling windows (2, 4, 8, then 9) over the circle written out twice.
-#[inline]
+#[inline(always)]
 fn score_of(d: &[i16; 16]) -> i16 {
-    let mut e = [0i16; 32];
-    let mut n = [0i16; 32];
-    for i in 0..32 {
-        e[i] = d[i & 15];
-        n[i] = -d[i & 15];
-    }
-    let mut best = i16::MIN;
-    for v in [&e, &n] {
-        let mut m2 = [0i16; 31];
-        for i in 0..31 {
-            m2[i] = v[i].min(v[i + 1]);
-        }
-        let mut m4 = [0i16; 29];
-        for i in 0..29 {
-            m4[i] = m2[i].min(m2[i + 2]);
-        }
+    // The circle written out to 24 entries; lane i of lo/hi is the min/max over arc i..i+9.
+    let e: [i16; 24] = std::array::from_fn(|i| d[i & 15]);
+    let mut lo = [i16::MAX; 16];
+    let mut hi = [i16::MIN; 16];
+    for k in 0..9 {
         for i in 0..16 {
-            let m9 = m4[i].min(m4[i + 4]).min(v[i + 8]);
-            best = best.max(m9);
+            lo[i] = lo[i].min(e[i + k]);
+            hi[i] = hi[i].max(e[i + k]);
         }
     }
-    best - 1
+    let best_dark = lo.iter().copied().max().unwrap_or(i16::MIN);
+    let best_bright = -hi.iter().copied().min().unwrap_or(i16::MAX);
+    best_dark.max(best_bright) - 1
 }
 
 /// Builds, for a run of `n` pixels, the 16-bit masks of circle pixels brighter than c + t and
 /// darker than c - t, and flags the pixels where either mask holds a 9-run. Plain loops over
 /// slices so the compiler vectorises them; `circle[k]` is the slice of circle pixel k.
 #[inline(always)]
-fn corner_flags(c: &[u8], circle: &[&[u8]; 16], t: u8, bright: &mut [u16], dark: &mut [u16], out: &mut [u8]) {
+fn corner_flags(c: &[u8], circle: &[&[u8]; 16], t: u8, bright: &mut [u8], dark: &mut [u8], out: &mut [u8]) {
     let n = out.len();
-    let (c, bright, dark) = (&c[..n], &mut bright[..n], &mut dark[..n]);
-    bright.fill(0);
-    dark.fill(0);
-    for (k, src) in circle.iter().enumerate() {
-        let src = &src[..n];
-        for i in 0..n {
-            let hi = c[i].saturating_add(t);
-            let lo = c[i].saturating_sub(t);
-            bright[i] |= u16::from(src[i] > hi) << k;
-            dark[i] |= u16::from(src[i] < lo) << k;
+    let c = &c[..n];
+    // Masks of circle pixels 0..8 and 8..16 in separate u8 planes: u8 lanes only.
+    let (b_lo, b_hi) = bright[..2 * n].split_at_mut(n);
+    let (d_lo, d_hi) = dark[..2 * n].split_at_mut(n);
+    for (half, (bp, dp)) in [(b_lo, d_lo), (b_hi, d_hi)].into_iter().enumerate() {
+        bp.fill(0);
+        dp.fill(0);
+        for k in 0..8 {
+            let src = &circle[8 * half + k][..n];
+            for i in 0..n {
+                let hi = c[i].saturating_add(t);
+                let lo = c[i].saturating_sub(t);
+                bp[i] |= u8::from(src[i] > hi) << k;
+                dp[i] |= u8::from(src[i] < lo) << k;
+            }
         }
     }
+    let (b_lo, b_hi) = bright[..2 * n].split_at(n);
+    let (d_lo, d_hi) = dark[..2 * n].split_at(n);
     for i in 0..n {
-        out[i] = u8::from(has_run9(u32::from(bright[i])) | has_run9(u32::from(dark[i])));
+        let b = u32::from(b_lo[i]) | (u32::from(b_hi[i]) << 8);
+        let d = u32::from(d_lo[i]) | (u32::from(d_hi[i]) << 8);
+        out[i] = u8::from(has_run9(b) | has_run9(d));
     }
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn corner_flags_avx2(
-    c: &[u8],
-    circle: &[&[u8]; 16],
-    t: u8,
-    bright: &mut [u16],
-    dark: &mut [u16],
-    out: &mut [u8],
-) {
+unsafe fn corner_flags_avx2(c: &[u8], circle: &[&[u8]; 16], t: u8, bright: &mut [u8], dark: &mut [u8], out: &mut [u8]) {
     corner_flags(c, circle, t, bright, dark, out);
 }
 
-fn corner_flags_dispatch(c: &[u8], circle: &[&[u8]; 16], t: u8, bright: &mut [u16], dark: &mut [u16], out: &mut [u8]) {
+fn corner_flags_dispatch(c: &[u8], circle: &[&[u8]; 16], t: u8, bright: &mut [u8], dark: &mut [u8], out: &mut [u8]) {
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: the CPU supports AVX2 (checked just above).
@@ -153,8 +146,8 @@ pub(crate) fn detect_in(level: &Level, t: u8, edge: usize, scratch: &mut Scratch
     scratch.scores.resize(w * h, 0);
     scratch.flags.clear();
     scratch.flags.resize(x1 - x0, 0);
-    scratch.bright.resize(x1 - x0, 0);
-    scratch.dark.resize(x1 - x0, 0);
+    scratch.bright.resize(2 * (x1 - x0), 0);
+    scratch.dark.resize(2 * (x1 - x0), 0);
     let stride = level.stride as isize;
     let offs: [isize; 16] = CIRCLE.map(|(dx, dy)| dy * stride + dx);
     let data = &level.data;
