@@ -20,8 +20,9 @@ pub const BLUR_KERNEL: [f32; 7] = [
 /// Blurs the level's pixels in place, reading the (unblurred) padding around them, as OpenCV's
 /// `GaussianBlur(level_roi, 7x7, sigma 2, BORDER_REFLECT_101)` in ORB. On a sub-matrix OpenCV
 /// skips its fixed-point path and runs the generic separable filter: a horizontal pass u8 -> f32
-/// (taps accumulated left to right), a vertical pass pairing symmetric taps, then rounding half to
-/// even with saturation. Integer approximations (the Q8 kernels) flip 20-75 % of descriptors on
+/// (taps accumulated left to right with fused multiply-adds, as its AVX2 row filter), a vertical
+/// pass pairing symmetric taps, then rounding half to even with saturation. The fused row pass
+/// took identical descriptors from 99.98 % to 100.00 % on the interop images. Integer approximations (the Q8 kernels) flip 20-75 % of descriptors on
 /// near-ties, so the float arithmetic is kept.
 pub(crate) fn blur_level(level: &mut Level, buf: &mut Vec<f32>) {
     let (w, h) = (level.width, level.height);
@@ -57,12 +58,12 @@ fn hblur(src: &[u8], out: &mut [f32]) {
     let s = &src[..n + 6];
     for x in 0..n {
         let mut v = k[0] * f32::from(s[x]);
-        v += k[1] * f32::from(s[x + 1]);
-        v += k[2] * f32::from(s[x + 2]);
-        v += k[3] * f32::from(s[x + 3]);
-        v += k[4] * f32::from(s[x + 4]);
-        v += k[5] * f32::from(s[x + 5]);
-        v += k[6] * f32::from(s[x + 6]);
+        v = k[1].mul_add(f32::from(s[x + 1]), v);
+        v = k[2].mul_add(f32::from(s[x + 2]), v);
+        v = k[3].mul_add(f32::from(s[x + 3]), v);
+        v = k[4].mul_add(f32::from(s[x + 4]), v);
+        v = k[5].mul_add(f32::from(s[x + 5]), v);
+        v = k[6].mul_add(f32::from(s[x + 6]), v);
         out[x] = v;
     }
 }
@@ -84,7 +85,7 @@ fn vblur(rows: [&[f32]; 7], out: &mut [u8]) {
 }
 
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
+#[target_feature(enable = "avx2,fma")]
 unsafe fn hblur_avx2(src: &[u8], out: &mut [f32]) {
     hblur(src, out);
 }
