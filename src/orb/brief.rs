@@ -98,8 +98,8 @@ unsafe fn vblur_avx2(rows: [&[f32]; 7], out: &mut [u8]) {
 
 fn blur_dispatch_h(src: &[u8], out: &mut [f32]) {
     #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") {
-        // SAFETY: the CPU supports AVX2 (checked just above).
+    if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
+        // SAFETY: the CPU supports AVX2 and FMA (checked just above).
         unsafe { hblur_avx2(src, out) };
         return;
     }
