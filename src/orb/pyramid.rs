@@ -133,6 +133,43 @@ pub fn resize_linear_exact(
     dw: usize,
     dh: usize,
 ) {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU supports AVX2 (checked just above).
+        unsafe { resize_avx2(src, src_stride, sw, sh, dst, dst_stride, dw, dh) };
+        return;
+    }
+    resize_impl(src, src_stride, sw, sh, dst, dst_stride, dw, dh);
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[allow(clippy::too_many_arguments)]
+unsafe fn resize_avx2(
+    src: &[u8],
+    src_stride: usize,
+    sw: usize,
+    sh: usize,
+    dst: &mut [u8],
+    dst_stride: usize,
+    dw: usize,
+    dh: usize,
+) {
+    resize_impl(src, src_stride, sw, sh, dst, dst_stride, dw, dh);
+}
+
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn resize_impl(
+    src: &[u8],
+    src_stride: usize,
+    sw: usize,
+    sh: usize,
+    dst: &mut [u8],
+    dst_stride: usize,
+    dw: usize,
+    dh: usize,
+) {
     let xc = linear_coeffs(sw, dw);
     let yc = linear_coeffs(sh, dh);
     // Split the x table into arrays for the inner loop.
@@ -140,6 +177,8 @@ pub fn resize_linear_exact(
     let x1: Vec<usize> = xc.iter().map(|c| c.1 as usize).collect();
     let cx0: Vec<u16> = xc.iter().map(|c| c.2).collect();
     let cx1: Vec<u16> = xc.iter().map(|c| c.3).collect();
+    // hline's unchecked loads rely on this.
+    assert!(x0.iter().chain(&x1).all(|&x| x < sw), "resize offsets inside the source row");
     let mut rows: [Vec<u16>; 2] = [vec![0; dw], vec![0; dw]];
     let mut cached: [usize; 2] = [usize::MAX; 2];
     for (dy, &(y0, y1, cy0, cy1)) in yc.iter().enumerate() {
@@ -162,14 +201,20 @@ pub fn resize_linear_exact(
     }
 }
 
-#[inline]
+/// Horizontal pass of one row. Callers guarantee every index in `x0`/`x1` is below
+/// `srow.len()` (checked once per resize in `resize_impl`).
+#[inline(always)]
 fn hline(srow: &[u8], x0: &[usize], x1: &[usize], c0: &[u16], c1: &[u16], out: &mut [u16]) {
-    for i in 0..out.len() {
-        out[i] = u16::from(srow[x0[i]]) * c0[i] + u16::from(srow[x1[i]]) * c1[i];
+    let n = out.len();
+    let (x0, x1, c0, c1) = (&x0[..n], &x1[..n], &c0[..n], &c1[..n]);
+    for i in 0..n {
+        // SAFETY: x0[i], x1[i] < srow.len(), established by resize_impl's assertion.
+        let (a, b) = unsafe { (*srow.get_unchecked(x0[i]), *srow.get_unchecked(x1[i])) };
+        out[i] = u16::from(a) * c0[i] + u16::from(b) * c1[i];
     }
 }
 
-#[inline]
+#[inline(always)]
 fn vline(r0: &[u16], r1: &[u16], c0: u32, c1: u32, out: &mut [u8]) {
     let n = out.len();
     let (r0, r1) = (&r0[..n], &r1[..n]);
