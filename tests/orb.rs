@@ -286,3 +286,19 @@ fn cli_rejects_an_unreadable_image_with_status_2() {
     assert!(err.contains("no_such_image.png"), "{err}");
     assert!(out.stdout.is_empty());
 }
+
+#[test]
+fn tiny_and_degenerate_images_give_no_features_not_panics() {
+    for (w, h) in [(1usize, 1usize), (2, 3), (7, 40), (40, 40), (70, 70)] {
+        let img: Vec<u8> = (0..w * h).map(|i| (i * 97 % 256) as u8).collect();
+        let (k, d) = Orb::default().detect_and_compute((img.as_slice(), w, h)).unwrap();
+        assert_eq!(k.len(), d.len());
+        // Nothing can lie 31 px inside an image narrower than 63 px.
+        if w < 63 || h < 63 {
+            assert!(k.is_empty(), "{w}x{h}");
+        }
+    }
+    assert!(Orb::default().detect_and_compute((&[][..], 0, 0)).is_err());
+    let (k, _) = Orb::with_features(0).detect_and_compute((&[0u8; 10_000][..], 100, 100)).unwrap();
+    assert!(k.is_empty());
+}

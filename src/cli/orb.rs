@@ -68,6 +68,18 @@ fn detect(path: &Path, features: usize) -> Result<Detected, CliError> {
     Ok((img, k, d))
 }
 
+/// Writes `text` and a newline to stdout; a closed pipe (`| head`) ends the output quietly.
+fn emit(text: &str) -> Result<(), CliError> {
+    use std::io::Write;
+    let mut out = std::io::stdout().lock();
+    match out.write_all(text.as_bytes()).and_then(|()| out.write_all(b"\n")).and_then(|()| out.flush()) {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => {
+            Err(failure(anyhow::Error::new(e).context("writing to stdout")))
+        }
+        _ => Ok(()),
+    }
+}
+
 fn hex(d: &[u8; 32]) -> String {
     d.iter().map(|b| format!("{b:02x}")).collect()
 }
@@ -83,18 +95,19 @@ pub fn run_orb(args: &OrbArgs) -> Result<(), CliError> {
             .collect();
         let descs: Vec<String> = descriptors.iter().map(hex).collect();
         let out = json!({"width": img.width(), "height": img.height(), "keypoints": kps, "descriptors": descs});
-        println!("{out}");
+        emit(&out.to_string())
     } else {
         let mut per_octave = std::collections::BTreeMap::new();
         for k in &keypoints {
             *per_octave.entry(k.octave).or_insert(0usize) += 1;
         }
-        println!("{}: {}x{}, {} keypoints", args.image.display(), img.width(), img.height(), keypoints.len());
+        let mut text =
+            format!("{}: {}x{}, {} keypoints", args.image.display(), img.width(), img.height(), keypoints.len());
         for (o, n) in per_octave {
-            println!("  octave {o}: {n}");
+            text.push_str(&format!("\n  octave {o}: {n}"));
         }
+        emit(&text)
     }
-    Ok(())
 }
 
 pub fn run_match(args: &MatchArgs) -> Result<(), CliError> {
@@ -112,9 +125,9 @@ pub fn run_match(args: &MatchArgs) -> Result<(), CliError> {
             "n_matches": matches.len(),
             "n_inliers": n_inliers,
         });
-        println!("{out}");
+        emit(&out.to_string())
     } else {
-        println!(
+        emit(&format!(
             "{} keypoints in {}, {} in {}: {} cross-checked matches, {} RANSAC inliers",
             ka.len(),
             args.image_a.display(),
@@ -122,7 +135,6 @@ pub fn run_match(args: &MatchArgs) -> Result<(), CliError> {
             args.image_b.display(),
             matches.len(),
             n_inliers
-        );
+        ))
     }
-    Ok(())
 }

@@ -236,6 +236,15 @@ mod tests {
     }
 
     #[test]
+    fn dispatched_row_filter_equals_the_portable_one() {
+        let src: Vec<u8> = (0..706u32).map(|i| (i.wrapping_mul(2_654_435_761) >> 24) as u8).collect();
+        let (mut a, mut b) = (vec![0f32; 700], vec![0f32; 700]);
+        hblur(&src, &mut a);
+        blur_dispatch_h(&src, &mut b);
+        assert_eq!(a, b);
+    }
+
+    #[test]
     fn magic_rounding_is_half_to_even() {
         for (x, want) in
             [(0.5f32, 0.0f32), (1.5, 2.0), (2.5, 2.0), (-0.5, 0.0), (-1.5, -2.0), (3.49, 3.0), (-7.51, -8.0)]

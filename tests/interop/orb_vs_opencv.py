@@ -76,8 +76,9 @@ def compare(img, path, n):
     o_xy = np.array([[k["x"], k["y"]] for k in ok], dtype=np.float64).reshape(-1, 2)
     o_oct = np.array([k["octave"] for k in ok])
     o_ang = np.array([k["angle"] for k in ok])
+    o_resp = np.array([k["response"] for k in ok])
     o_desc = ours["descriptors"]
-    matched = angle_ok = desc_same = 0
+    matched = angle_ok = desc_same = resp_same = 0
     for i, k in enumerate(kps):
         d2 = ((o_xy - np.array(k.pt)) ** 2).sum(axis=1)
         d2[o_oct != k.octave] = np.inf
@@ -88,6 +89,7 @@ def compare(img, path, n):
         da = abs((o_ang[j] - k.angle + 180.0) % 360.0 - 180.0)
         angle_ok += da <= 1.0
         desc_same += o_desc[j] == desc[i].tobytes().hex()
+        resp_same += abs(o_resp[j] - k.response) <= 1e-5 * abs(k.response)
     n_cv = len(kps)
     return {
         "opencv": n_cv,
@@ -95,6 +97,7 @@ def compare(img, path, n):
         "kp": matched / max(n_cv, 1),
         "angle": angle_ok / max(matched, 1),
         "desc": desc_same / max(matched, 1),
+        "resp": resp_same / max(matched, 1),
     }
 
 
@@ -114,7 +117,7 @@ def main():
     images = {**photos(), **synthetic()}
     failures = []
     tmp = tempfile.mkdtemp(prefix="orb_interop_")
-    totals = {"opencv": 0, "kp": 0.0, "angle": 0.0, "desc": 0.0, "matched": 0.0}
+    totals = {"opencv": 0, "kp": 0.0, "angle": 0.0, "desc": 0.0, "resp": 0.0, "matched": 0.0}
     for n in (500, 2000):
         for name, img in images.items():
             path = os.path.join(tmp, f"{name}.png")
@@ -122,13 +125,15 @@ def main():
             r = compare(img, path, n)
             print(
                 f"  {name:16s} n={n:4d} opencv={r['opencv']:4d} ours={r['ours']:4d} "
-                f"keypoints={100 * r['kp']:6.2f}% angles={100 * r['angle']:6.2f}% descriptors={100 * r['desc']:6.2f}%"
+                f"keypoints={100 * r['kp']:6.2f}% angles={100 * r['angle']:6.2f}% descriptors={100 * r['desc']:6.2f}% "
+                f"responses={100 * r['resp']:6.2f}%"
             )
             m = r["kp"] * r["opencv"]
             totals["opencv"] += r["opencv"]
             totals["matched"] += m
             totals["angle"] += r["angle"] * m
             totals["desc"] += r["desc"] * m
+            totals["resp"] += r["resp"] * m
             if r["kp"] < 0.95:
                 failures.append(f"{name} n={n}: keypoints {100 * r['kp']:.2f}% < 95%")
             if r["desc"] < 0.95:
@@ -136,7 +141,8 @@ def main():
     mt = max(totals["matched"], 1)
     print(
         f"overall: keypoints {100 * totals['matched'] / totals['opencv']:.2f}% matched within 1 px at the same octave, "
-        f"angles within 1 deg {100 * totals['angle'] / mt:.2f}%, identical descriptors {100 * totals['desc'] / mt:.2f}%"
+        f"angles within 1 deg {100 * totals['angle'] / mt:.2f}%, identical descriptors {100 * totals['desc'] / mt:.2f}%, "
+        f"Harris responses within 1e-5 {100 * totals['resp'] / mt:.2f}%"
     )
 
     # Matching + RANSAC inliers on an image and a warped copy.
