@@ -46,6 +46,22 @@ pub fn fast_atan2_deg(y: f32, x: f32) -> f32 {
 /// m10 = sum u I, m01 = sum v I over the circular patch of radius 15 (v grows downwards).
 #[must_use]
 pub fn ic_angle(level: &Level, x: usize, y: usize) -> f32 {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU supports AVX2 (checked just above).
+        return unsafe { ic_angle_avx2(level, x, y) };
+    }
+    ic_angle_impl(level, x, y)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn ic_angle_avx2(level: &Level, x: usize, y: usize) -> f32 {
+    ic_angle_impl(level, x, y)
+}
+
+#[inline(always)]
+fn ic_angle_impl(level: &Level, x: usize, y: usize) -> f32 {
     let d = &level.data;
     let s = level.stride;
     let c = level.index(x as isize, y as isize);

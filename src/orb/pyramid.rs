@@ -230,6 +230,14 @@ pub fn pad_reflect101(level: &mut Level) {
     // Left/right padding on the level's own rows.
     for y in 0..h {
         let row = (y + b) * s;
+        if w > b {
+            // Common case: one reflection, no index folding.
+            for i in 1..=b {
+                level.data[row + b - i] = level.data[row + b + i];
+                level.data[row + b + w - 1 + i] = level.data[row + b + w - 1 - i];
+            }
+            continue;
+        }
         for i in 1..=b {
             level.data[row + b - i] = level.data[row + b + reflect101(-(i as isize), w)];
             level.data[row + b + w - 1 + i] = level.data[row + b + reflect101((w - 1 + i) as isize, w)];
