@@ -302,3 +302,32 @@ fn tiny_and_degenerate_images_give_no_features_not_panics() {
     let (k, _) = Orb::with_features(0).detect_and_compute((&[0u8; 10_000][..], 100, 100)).unwrap();
     assert!(k.is_empty());
 }
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(48))]
+
+    /// Against a naive definition: (q, t) is a match exactly when t is q's first nearest train
+    /// descriptor and q is t's first nearest query descriptor.
+    #[test]
+    fn cross_check_equals_the_naive_mutual_nearest(seed in 0u64..1_000_000, nq in 1usize..40, nt in 1usize..40) {
+        let mut rng = scene_gen::rng::stream(seed, "orb-prop-descriptors");
+        // Few distinct bits so that ties are common.
+        let mut desc = |_| { let mut d = [0u8; 32]; d[0] = rng.random(); d[1] = rng.random::<u8>() & 3; d };
+        let q: Vec<[u8; 32]> = (0..nq).map(&mut desc).collect();
+        let t: Vec<[u8; 32]> = (0..nt).map(&mut desc).collect();
+        let first_min = |it: &mut dyn Iterator<Item = u32>| {
+            let v: Vec<u32> = it.collect();
+            let m = *v.iter().min().unwrap();
+            v.iter().position(|&x| x == m).unwrap()
+        };
+        let mut want = Vec::new();
+        for (i, qd) in q.iter().enumerate() {
+            let j = first_min(&mut t.iter().map(|td| hamming(qd, td)));
+            let back = first_min(&mut q.iter().map(|qq| hamming(qq, &t[j])));
+            if back == i {
+                want.push(Match { query: i as u32, train: j as u32, distance: hamming(qd, &t[j]) });
+            }
+        }
+        proptest::prop_assert_eq!(match_cross_check(&q, &t), want);
+    }
+}
