@@ -43,6 +43,7 @@ pub mod library;
 pub mod lights;
 pub mod manifest;
 pub mod materials;
+pub mod orb;
 pub mod placement;
 pub mod render;
 pub mod rng;

@@ -377,7 +377,7 @@ fn textures_are_decoded_and_tinted() {
         width: 1,
         height: 1,
         rgba8: [255u8, 128, 0, 255].into_iter().collect(),
-        png: Vec::new(),
+        png: Vec::new().into(),
     });
     scene.geometry.materials[0].base_color_texture = Some(0);
     scene.lights.push(directional_light(LightGroup::Day, -Vec3::Z, 100.0));

@@ -2,6 +2,7 @@
 
 mod calibrate;
 mod generate;
+mod orb;
 mod sensors;
 
 use clap::{Parser, Subcommand};
@@ -45,6 +46,10 @@ pub enum Command {
     Sensors(sensors::SensorsArgs),
     /// EMVA 1288 calibration of a measured camera (descriptor + images, or photon-transfer CSV).
     Calibrate(calibrate::CalibrateArgs),
+    /// ORB keypoints and descriptors of an image, as OpenCV's ORB computes them.
+    Orb(orb::OrbArgs),
+    /// Cross-checked ORB matches between two images and their RANSAC fundamental-matrix inliers.
+    Match(orb::MatchArgs),
 }
 
 pub fn parse() -> Cli {
@@ -56,5 +61,7 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         None => generate::run(&cli.generate),
         Some(Command::Sensors(args)) => sensors::run(&args),
         Some(Command::Calibrate(args)) => calibrate::run(&args),
+        Some(Command::Orb(args)) => orb::run_orb(&args),
+        Some(Command::Match(args)) => orb::run_match(&args),
     }
 }

@@ -281,7 +281,7 @@ mod tests {
             height: 1,
             // Collected, so the test compiles whether the buffer is a Vec or an Arc<[u8]>.
             rgba8: [0u8, 0, 0, 255, 255, 255, 255, 255].into_iter().collect(),
-            png: Vec::new(),
+            png: Vec::new().into(),
         };
         assert!((sample_texture(&texture, Vec2::new(0.25, 0.5)).x - 0.0).abs() < 1e-6);
         assert!((sample_texture(&texture, Vec2::new(0.75, 0.5)).x - 1.0).abs() < 1e-6);
