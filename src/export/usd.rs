@@ -440,7 +440,10 @@ impl UsdPlan {
                 Semantic::Decor { room } => room_children(room, Some("Decor"), &mut names, &mut prims),
                 Semantic::Wall { .. } | Semantic::Opening { .. } => structure.clone(),
             };
-            let node_path = names.child(&parent, &node.name);
+            // Under a labelled root the geometry gets a name of its own: a child named like its
+            // parent (`chair_5/chair_5`) makes importers such as Blender rename one of the two.
+            let labelled = matches!(node.semantic, Semantic::Object { .. } | Semantic::Threshold { .. });
+            let node_path = names.child(&parent, if labelled { "geom" } else { &node.name });
             prims.push(XformPrim {
                 path: node_path.clone(),
                 prim_type: "Xform",
@@ -711,9 +714,10 @@ mod tests {
         let plan = UsdPlan::of(&scene());
         let chair = prim(&plan, "/World/Rooms/room_0/Objects/chair_0");
         assert_eq!(chair.label, Some(LabelSpec { class: "chair".into(), class_id: 4, instance_id: 2, room: Some(0) }));
-        // Two nodes of one object share one root; the second node gets a unique name.
-        prim(&plan, "/World/Rooms/room_0/Objects/chair_0/chair");
-        prim(&plan, "/World/Rooms/room_0/Objects/chair_0/chair_1");
+        // Two nodes of one object share one root; their geometry prims get unique names that
+        // never repeat the root's own name (importers rename such pairs).
+        prim(&plan, "/World/Rooms/room_0/Objects/chair_0/geom");
+        prim(&plan, "/World/Rooms/room_0/Objects/chair_0/geom_1");
         let threshold = prim(&plan, "/World/Thresholds/threshold_0");
         assert_eq!(threshold.label.as_ref().map(|l| (l.class.as_str(), l.class_id)), Some(("threshold", 11)));
         prim(&plan, "/World/Rooms/room_0/floor_0");

@@ -7,7 +7,7 @@ For one scene written twice (text and binary layers) it checks:
   * every manifest object and threshold has exactly one prim labelled with its class in both
     semantics forms (UsdSemantics.LabelsAPI taxonomy `class`, Isaac Sim's legacy
     SemanticsAPI:Semantics) and its class and instance ids, and no other prim is labelled;
-  * each labelled prim's world bounding box (UsdGeom.BBoxCache, default purpose) is within 1 mm
+  * each labelled prim's world bounding box (tight, from the mesh points) is within 1 mm
     of the manifest's min/max;
   * the `lighting` variant set: `day` activates exactly the manifest's day lights, `night` the
     night lights, with the UsdLux types and unit conversions of src/export/usd.rs;
@@ -23,7 +23,7 @@ import math
 import os
 import sys
 
-from pxr import Sdf, Usd, UsdGeom, UsdLux, UsdSemantics, UsdShade, UsdValidation
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdSemantics, UsdShade, UsdValidation
 
 TOLERANCE_M = 1e-3
 POINT_LIGHT_RADIUS_M = 0.025  # src/export/usd.rs
@@ -66,7 +66,7 @@ def check_labels_and_bounds(stage, manifest, fail, name):
     for path, prim in labelled.items():
         attr = prim.GetAttribute("scenegen:instance_id")
         by_instance.setdefault(attr.Get() if attr else None, []).append(prim)
-    cache = UsdGeom.BBoxCache(Usd.TimeCode.Default(), [UsdGeom.Tokens.default_])
+    xform_cache = UsdGeom.XformCache(Usd.TimeCode.Default())
     for cls, instance_id, lo, hi, room in expected:
         prims = by_instance.get(instance_id, [])
         if not fail.check(len(prims) == 1, f"{name}: {len(prims)} prims for {cls} instance {instance_id}"):
@@ -81,12 +81,30 @@ def check_labels_and_bounds(stage, manifest, fail, name):
         fail.check(prim.GetAttribute("scenegen:class_id").Get() == class_ids[cls], f"{where}: class_id")
         if room is not None:
             fail.check(prim.GetAttribute("scenegen:room").Get() == room, f"{where}: room")
-        box = cache.ComputeWorldBound(prim).ComputeAlignedRange()
-        got_lo, got_hi = box.GetMin(), box.GetMax()
+        got_lo, got_hi = tight_world_bounds(prim, xform_cache)
         err = max(max(abs(got_lo[i] - lo[i]), abs(got_hi[i] - hi[i])) for i in range(3))
         fail.check(err <= TOLERANCE_M,
                    f"{where}: world bounds {list(got_lo)}..{list(got_hi)} vs manifest {lo}..{hi} ({err * 1e3:.3f} mm off)")
     return len(expected)
+
+
+def tight_world_bounds(prim, xform_cache):
+    """The axis-aligned box of every mesh point under `prim`, in world space.
+
+    The manifest holds the tight box of the placed mesh. UsdGeom.BBoxCache's world bound is the
+    aligned box of each local box after its transform, which is looser for an object turned by
+    an angle that is not a multiple of 90 degrees, so compare points instead.
+    """
+    lo, hi = [math.inf] * 3, [-math.inf] * 3
+    for child in Usd.PrimRange(prim):
+        if not child.IsA(UsdGeom.Mesh):
+            continue
+        to_world = xform_cache.GetLocalToWorldTransform(child)
+        for p in UsdGeom.Mesh(child).GetPointsAttr().Get():
+            w = to_world.Transform(Gf.Vec3d(p))
+            lo = [min(lo[i], w[i]) for i in range(3)]
+            hi = [max(hi[i], w[i]) for i in range(3)]
+    return lo, hi
 
 
 def check_lights(stage, manifest, fail, name):
