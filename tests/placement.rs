@@ -445,8 +445,10 @@ fn meshes_are_shared_between_instances() {
 fn generate_places_furniture_by_the_rules() {
     let lib = library();
     let mut classes = BTreeSet::new();
-    for seed in 0..60_u64 {
-        let config = GeneratorConfig { seed, ..GeneratorConfig::default() };
+    let envelopes = [(15.0, 15.0, 3.0), (20.0, 10.0, 2.8), (10.0, 10.0, 3.0)];
+    for (seed, (width_m, depth_m, height_m)) in (0..500_u64).flat_map(|s| envelopes.map(|e| (s, e))) {
+        let envelope = scene_gen::scene::Envelope { width_m, depth_m, height_m };
+        let config = GeneratorConfig { seed, envelope, ..GeneratorConfig::default() };
         let scene = generate(&config, &lib).unwrap();
         let plan = Floorplan {
             rooms: scene.rooms.clone(),
@@ -461,7 +463,7 @@ fn generate_places_furniture_by_the_rules() {
         assert!(!scene.objects.is_empty(), "seed {seed}: no furniture");
         classes.extend(scene.objects.iter().map(|o| o.class));
     }
-    assert!(classes.len() >= 3, "classes seen through generate(): {classes:?}");
+    assert_eq!(classes.len(), 10, "classes seen through generate() over 500 seeds x 3 envelopes: {classes:?}");
 }
 
 fn place_and_check(lib: &Library, seed: u64) -> Result<Vec<Object>, String> {
