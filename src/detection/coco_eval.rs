@@ -227,7 +227,7 @@ fn stable_argsort_desc(scores: &[f64]) -> Vec<usize> {
 
 fn evaluate_cell(gts: &[&GtAnnotation], dts: &[&DetectionRecord], thresholds: &[f64; IOU_THRESHOLDS]) -> CellEval {
     let gt_ignore_raw: Vec<bool> =
-        gts.iter().map(|g| g.iscrowd != 0 || g.area < 0.0 || g.area > AREA_ALL_MAX).collect();
+        gts.iter().map(|g| g.iscrowd != 0 || !(0.0..=AREA_ALL_MAX).contains(&g.area)).collect();
     // Non-ignored ground truth first, stable.
     let mut gt_order: Vec<usize> = (0..gts.len()).collect();
     gt_order.sort_by_key(|&i| gt_ignore_raw[i]);
@@ -273,7 +273,7 @@ fn evaluate_cell(gts: &[&GtAnnotation], dts: &[&DetectionRecord], thresholds: &[
         // Unmatched detections outside the area range are ignored.
         for di in 0..n_d {
             let area = dt[di].bbox[2] * dt[di].bbox[3];
-            if !matched[ti][di] && (area < 0.0 || area > AREA_ALL_MAX) {
+            if !matched[ti][di] && !(0.0..=AREA_ALL_MAX).contains(&area) {
                 ignored[ti][di] = true;
             }
         }

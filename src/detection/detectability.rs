@@ -34,8 +34,9 @@
 //!
 //! **False positives** on textured clutter: the image is cut into cells of 32 px at 640 x 480
 //! (scaled with the square root of the pixel count); a cell is clutter when its DN standard
-//! deviation exceeds `3 sigma` (structure, not noise) and less than half of it belongs to a
-//! counted object. Each clutter cell yields a false positive with probability
+//! deviation exceeds `3 sigma` (structure, not noise) and none of it belongs to a counted
+//! object (a box on part of a real object is a localisation error, not a false alarm on
+//! clutter). Each clutter cell yields a false positive with probability
 //! [`DetectabilityModel::false_positive_rate`] (default 2 %), of a uniformly drawn class
 //! 1..=11, on the cell box (jittered like a detection), with a score uniform in
 //! `[0, max_false_positive_score)` (default 0.5).
@@ -144,7 +145,7 @@ impl DetectabilityModel {
     /// ratio `cnr` (step 3 of the module docs).
     #[must_use]
     pub fn cycles(&self, critical_px: f64, cnr: f64) -> f64 {
-        if !(cnr > 0.0) {
+        if cnr.is_nan() || cnr <= 0.0 {
             return 0.0;
         }
         let bar_px = (self.rose_k / cnr).max(1.0);
@@ -154,7 +155,7 @@ impl DetectabilityModel {
     /// Detection probability from resolvable cycles (step 4).
     #[must_use]
     pub fn probability_from_cycles(&self, n: f64) -> f64 {
-        if !(n > 0.0) {
+        if n.is_nan() || n <= 0.0 {
             return 0.0;
         }
         let r = n / self.n50_cycles;
@@ -269,7 +270,7 @@ impl Detector for DetectabilityModel {
 
 impl DetectabilityModel {
     fn false_positives(&self, input: &DetectorInput<'_>, sigma: f64, out: &mut Vec<Detection>) {
-        if !(self.false_positive_rate > 0.0) {
+        if self.false_positive_rate.is_nan() || self.false_positive_rate <= 0.0 {
             return;
         }
         let (w, h) = (input.width, input.height);
@@ -294,7 +295,7 @@ impl DetectabilityModel {
                         }
                     }
                 }
-                if k < 4 || on_object * 2 >= k {
+                if k < 4 || on_object > 0 {
                     continue;
                 }
                 let mean = s / k as f64;

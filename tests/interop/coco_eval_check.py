@@ -130,7 +130,7 @@ def main():
                 worst = max(worst, d)
                 if d > TOL:
                     sys.exit(f"set {s} ({'exact' if exact else 'float'}): {name}: pycocotools {want!r}, "
-                             f"scene-gen {got!r} (files kept? no: rerun with the same seed)")
+                             f"scene-gen {got!r}")
         print(f"check_coco: {n_sets} random sets ({n_dets} detections, {n_cls} per-class APs) agree with "
               f"pycocotools {importlib.metadata.version('pycocotools')} (numpy {np.__version__}); "
               f"largest difference {worst:.3g} (tolerance {TOL:g})")
