@@ -230,3 +230,100 @@ fn false_positives_only_on_clutter_and_deterministic() {
     let other = model.detect(&DetectorInput { frame_seed: 10, ..input });
     assert_ne!(dets, other);
 }
+
+/// Random ground truth on 1..4 images: a box from each tuple `(image, class, x, y, w, h)`.
+fn coco_file(boxes: &[(u64, u32, f64, f64, f64, f64)]) -> CocoGroundTruth {
+    CocoGroundTruth {
+        images: (1..=4).map(|id| CocoImage { id, width: 640, height: 480, file_name: String::new() }).collect(),
+        annotations: boxes
+            .iter()
+            .enumerate()
+            .map(|(i, &(image_id, category_id, x, y, w, h))| scene_gen::detection::GtAnnotation {
+                id: i as u64 + 1,
+                image_id,
+                category_id,
+                bbox: [x, y, w, h],
+                area: w * h,
+                iscrowd: 0,
+            })
+            .collect(),
+        categories: (1..=11).map(|id| CocoCategory { id, name: String::new() }).collect(),
+    }
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(64))]
+
+    /// For any ground truth: the ground truth itself scores AP 1 on every class that has
+    /// some; one extra false positive ranked first never raises AP; AP stays in [0, 1].
+    #[test]
+    fn ap_invariants(
+        boxes in proptest::collection::vec((1u64..=4, 1u32..=11, 0.0..600.0f64, 0.0..440.0f64, 1.0..200.0f64, 1.0..200.0f64), 1..30),
+        fp in (1u64..=4, 1u32..=11, 0.0..600.0f64, 0.0..440.0f64, 1.0..200.0f64, 1.0..200.0f64),
+    ) {
+        let gt = coco_file(&boxes);
+        let perfect: Vec<_> = gt.annotations.iter().map(|a| scene_gen::detection::DetectionRecord {
+            image_id: a.image_id, category_id: a.category_id, bbox: a.bbox, score: 0.5,
+        }).collect();
+        let m = evaluate(&gt, &perfect).unwrap();
+        for c in &m.per_class {
+            if c.num_gt > 0 {
+                proptest::prop_assert!((c.ap - 1.0).abs() < 1e-9 && (c.ap50 - 1.0).abs() < 1e-9);
+            } else {
+                proptest::prop_assert_eq!(c.ap, -1.0);
+            }
+        }
+        let mut with_fp = perfect.clone();
+        with_fp.push(scene_gen::detection::DetectionRecord {
+            image_id: fp.0, category_id: fp.1, bbox: [fp.2, fp.3, fp.4, fp.5], score: 0.9,
+        });
+        let m2 = evaluate(&gt, &with_fp).unwrap();
+        proptest::prop_assert!(m2.ap50 <= m.ap50 + 1e-12 && m2.ap <= m.ap + 1e-12);
+        proptest::prop_assert!((0.0..=1.0).contains(&m2.ap) && (0.0..=1.0).contains(&m2.ap50));
+    }
+}
+
+/// The whole chain on a rendered room: render, ground truth, a DN image with noise, the
+/// built-in detector, COCO AP. More noise must not help.
+#[test]
+fn rendered_room_end_to_end() {
+    use scene_gen::render::test_util::room_of_boxes;
+    let s = room_of_boxes(Vec3::new(6.0, 5.0, 2.6), 3);
+    let cam = Camera { focal_mm: 1.2, ..camera(160, 120, Vec3::new(0.3, 0.3, 1.5), 40.0, -25.0) };
+    let frame = Renderer::new(&s, RenderSettings::preview()).render(&cam).unwrap();
+    let objects = frame_ground_truth(&frame, &s, &cam, &GroundTruthConfig::default());
+    let counted = objects.iter().filter(|o| o.counted).count();
+    assert!(counted >= 4, "{objects:?}");
+    let lum = scene_gen::render::Frame::luminance_nit(&frame.day_nit);
+    let mean = lum.iter().sum::<f32>() / lum.len() as f32;
+    let gt = CocoGroundTruth {
+        images: vec![CocoImage { id: 1, width: 160, height: 120, file_name: String::new() }],
+        annotations: to_annotations(&objects, 1, 1),
+        categories: (1..=11).map(|id| CocoCategory { id, name: String::new() }).collect(),
+    };
+    let ap50 = |noise_dn: f64| -> f64 {
+        (0..6u64)
+            .map(|seed| {
+                let mut rng = scene_gen::rng::stream(seed, "test/rendered");
+                let image: Vec<f32> =
+                    lum.iter().map(|&l| (100.0 * l / mean) as f32 + (noise_dn * normal(&mut rng)) as f32).collect();
+                let input = DetectorInput {
+                    image_dn: &image,
+                    width: 160,
+                    height: 120,
+                    instance_id: &frame.instance_id,
+                    objects: &objects,
+                    noise_std_dn: Some(noise_dn),
+                    frame_seed: seed,
+                };
+                let dets: Vec<_> = DetectabilityModel::default().detect(&input).iter().map(|d| d.record(1)).collect();
+                evaluate(&gt, &dets).unwrap().ap50
+            })
+            .sum::<f64>()
+            / 6.0
+    };
+    let (clean, noisy) = (ap50(0.5), ap50(200.0));
+    eprintln!("rendered room: {counted} counted objects, AP50 {clean:.3} at 0.5 DN noise, {noisy:.3} at 200 DN");
+    assert!(clean > 0.6, "clean AP50 {clean}");
+    assert!(noisy < clean, "noisy {noisy} vs clean {clean}");
+}
