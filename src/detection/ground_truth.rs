@@ -13,7 +13,8 @@
 //!   [`Camera::ray_direction`]. The mesh, not the bounding box: an AABB's projection would
 //!   overstate the footprint of a chair by its empty space. `visible_fraction = visible /
 //!   footprint` (clamped to 1; pixel-centre ties on silhouette edges can put a visible pixel
-//!   outside the rasterised footprint), and `occluded_fraction = 1 - visible_fraction`. The
+//!   outside the rasterised footprint; an instance with no mesh in the scene gets its visible
+//!   pixels as footprint), and `occluded_fraction = 1 - visible_fraction`. The
 //!   image border counts as occlusion only in that the footprint is clipped to the image too:
 //!   an object cut by the frame edge is not "occluded".
 //! * **distance**: camera centre to the **nearest visible point** of the object (the minimum
