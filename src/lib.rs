@@ -21,6 +21,8 @@
 //! * [`render`]: the CPU ray tracer (radiance per light group, depth, instance/class ids).
 //! * [`sensor`]: the sensor catalog and the EMVA 1288 noise model (photons to DN), shared by the
 //!   renderer, the calibration and the gap workflow.
+//! * [`detection`]: ground truth from instance buffers, the built-in detectability model,
+//!   COCO evaluation (pycocotools-exact AP) and threshold visibility.
 //! * [`calibration`]: EMVA 1288 descriptors and photon-transfer CSVs to measured sensor
 //!   parameters (`scene-gen calibrate`).
 //!
@@ -36,6 +38,7 @@ pub mod assets;
 pub mod calibration;
 pub mod config;
 pub mod decor;
+pub mod detection;
 pub mod export;
 pub mod floorplan;
 pub mod generate;

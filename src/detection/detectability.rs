@@ -1,0 +1,354 @@
+//! The built-in detector: a detectability model in the spirit of Johnson's criteria and the
+//! target-acquisition models built on them, run on the noisy image so that sensor, optics and
+//! lighting change what is found.
+//!
+//! # The model, per counted ground-truth object
+//!
+//! 1. **Critical dimension** `D = sqrt(visible pixels)` (px): the square root of the visible
+//!    area, the convention of the NVESD target-acquisition models (Vollmerhausen and Jacobs,
+//!    "The Targeting Task Performance (TTP) Metric", NVESD report AMSEL-NV-TR-230, 2004), so
+//!    occlusion shrinks it.
+//! 2. **Contrast-to-noise ratio** `CNR = |mean(object) - mean(ring)| / sigma`, on the noisy DN
+//!    image: object pixels are the instance's pixels, the ring is every other pixel of its box
+//!    grown by `max(2, D / 4)` px on each side; `sigma` is the temporal noise (DN), from the
+//!    noise model when the caller has it ([`DetectorInput::noise_std_dn`]) or measured on the
+//!    image as `1.4826 * median(|I(x+1, y) - I(x, y)|) / sqrt(2)` (a MAD estimate on horizontal
+//!    differences: robust to edges, slightly high on fine texture), never below the 8-bit
+//!    quantisation noise `1 / sqrt(12)` DN.
+//! 3. **Resolvable cycles** `N = D / (2 s)`, with `s = max(1, k / CNR)` the smallest bar (px)
+//!    that stands out of the noise: a bar of `s x s` pixels averages noise down by `s`, so its
+//!    signal-to-noise ratio is `CNR s`, and it is seen when that reaches Rose's threshold
+//!    `k` ([`ROSE_K`]). With a clean image (`CNR >= k`) `N` is the Nyquist count `D / 2`;
+//!    with noise, the effective resolution coarsens and the object holds fewer cycles.
+//! 4. **Probability** from the target-transfer probability function of the Johnson/ACQUIRE
+//!    models, `P = (N / N50)^E / (1 + (N / N50)^E)`, `E = 2.7 + 0.7 N / N50` (J. A. Ratches
+//!    et al., "Night Vision Laboratory Static Performance Model for Thermal Viewing Systems",
+//!    ECOM-7043, 1975; the ACQUIRE form). `N50` is the cycles across the critical dimension for
+//!    a 50 % chance ([`DEFAULT_N50_CYCLES`]).
+//!
+//! Each object is then detected with probability `P` (a Bernoulli draw from a seeded stream),
+//! and a detection carries `score = P` and the visible box with each edge moved by a normal
+//! localisation error of standard deviation `0.5 px + 4 %` of the box side on that axis. The
+//! draw matters: emitting every object with score `P` and no false positives would score AP = 1
+//! however small `P` is, since AP only sees the ranking.
+//!
+//! **False positives** on textured clutter: the image is cut into cells of 32 px at 640 x 480
+//! (scaled with the square root of the pixel count); a cell is clutter when its DN standard
+//! deviation exceeds `3 sigma` (structure, not noise) and none of it belongs to a counted
+//! object (a box on part of a real object is a localisation error, not a false alarm on
+//! clutter). Each clutter cell yields a false positive with probability
+//! [`DetectabilityModel::false_positive_rate`] (default 2 %), of a uniformly drawn class
+//! 1..=11, on the cell box (jittered like a detection), with a score uniform in
+//! `[0, max_false_positive_score)` (default 0.5).
+//!
+//! # Calibration
+//!
+//! The constants are literature values, not fitted to a detector: Johnson (1958, "Analysis
+//! of image forming systems", Image Intensifier Symposium) gave 1.0 +- 0.25 cycles for
+//! detection and 4.0 for recognition; the default `N50 = 1.5` sits above detection because a
+//! COCO match needs a box that overlaps by half, and [`DetectabilityModel::recognition`] gives
+//! Johnson's 4.0 for a class-level task. `k = 5` is Rose's (A. Rose, "The sensitivity
+//! performance of the human eye on an absolute scale", JOSA 38, 1948). The false-positive rate
+//! and scores, and the localisation error, are engineering choices. A real network can replace
+//! the whole model through the plug-in protocol of the [module docs](super).
+
+use rand::Rng;
+
+use super::Detection;
+use super::ground_truth::GtObject;
+use crate::rng;
+use crate::sensor::noise::normal;
+
+/// Rose's threshold signal-to-noise ratio for seeing a feature (Rose 1948).
+pub const ROSE_K: f64 = 5.0;
+
+/// Default `N50`: cycles across the critical dimension for a 50 % detection chance (see the
+/// module docs for why 1.5 rather than Johnson's 1.0).
+pub const DEFAULT_N50_CYCLES: f64 = 1.5;
+
+/// Johnson's (1958) 50 % criterion for recognition, cycles across the critical dimension.
+pub const JOHNSON_RECOGNITION_N50_CYCLES: f64 = 4.0;
+
+/// Quantisation noise of integer DN, `1 / sqrt(12)`: the floor of the noise estimate.
+pub const QUANTISATION_STD_DN: f64 = 0.288_675_134_594_812_9;
+
+/// What a detector sees of one frame.
+#[derive(Clone, Copy, Debug)]
+pub struct DetectorInput<'a> {
+    /// One channel (mono, or the luma of a colour image), DN, row-major `width x height`.
+    pub image_dn: &'a [f32],
+    pub width: u32,
+    pub height: u32,
+    /// The frame's instance buffer (0 = none), same layout.
+    pub instance_id: &'a [u32],
+    /// The frame's ground truth; only `counted` objects are candidates.
+    pub objects: &'a [GtObject],
+    /// Temporal noise standard deviation from the noise model, DN; `None` measures it.
+    pub noise_std_dn: Option<f64>,
+    /// Seed of this frame's draws.
+    pub frame_seed: u64,
+}
+
+/// Anything that finds objects in a frame.
+pub trait Detector {
+    /// Detections in the frame, in a deterministic order.
+    fn detect(&self, input: &DetectorInput<'_>) -> Vec<Detection>;
+}
+
+/// The Johnson-criteria detectability model of the module docs.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DetectabilityModel {
+    /// Cycles across the critical dimension for P = 0.5.
+    pub n50_cycles: f64,
+    /// Threshold SNR of a resolvable bar.
+    pub rose_k: f64,
+    /// Localisation error: constant part, px.
+    pub loc_error_px: f64,
+    /// Localisation error: fraction of the box side.
+    pub loc_error_fraction: f64,
+    /// Chance that a clutter cell yields a false positive.
+    pub false_positive_rate: f64,
+    /// False-positive scores are uniform in `[0, max)`.
+    pub max_false_positive_score: f64,
+    /// Clutter cell side at 640 x 480, px.
+    pub clutter_cell_px_vga: f64,
+}
+
+impl Default for DetectabilityModel {
+    fn default() -> Self {
+        DetectabilityModel::detection()
+    }
+}
+
+impl DetectabilityModel {
+    /// The defaults of the module docs (`N50 = 1.5`).
+    #[must_use]
+    pub const fn detection() -> DetectabilityModel {
+        DetectabilityModel {
+            n50_cycles: DEFAULT_N50_CYCLES,
+            rose_k: ROSE_K,
+            loc_error_px: 0.5,
+            loc_error_fraction: 0.04,
+            false_positive_rate: 0.02,
+            max_false_positive_score: 0.5,
+            clutter_cell_px_vga: 32.0,
+        }
+    }
+
+    /// Johnson's recognition criterion (`N50 = 4`), the rest as [`Self::detection`].
+    #[must_use]
+    pub const fn recognition() -> DetectabilityModel {
+        DetectabilityModel { n50_cycles: JOHNSON_RECOGNITION_N50_CYCLES, ..DetectabilityModel::detection() }
+    }
+
+    /// Resolvable cycles across a critical dimension of `critical_px` at contrast-to-noise
+    /// ratio `cnr` (step 3 of the module docs).
+    #[must_use]
+    pub fn cycles(&self, critical_px: f64, cnr: f64) -> f64 {
+        if cnr.is_nan() || cnr <= 0.0 {
+            return 0.0;
+        }
+        let bar_px = (self.rose_k / cnr).max(1.0);
+        critical_px / (2.0 * bar_px)
+    }
+
+    /// Detection probability from resolvable cycles (step 4).
+    #[must_use]
+    pub fn probability_from_cycles(&self, n: f64) -> f64 {
+        if n.is_nan() || n <= 0.0 {
+            return 0.0;
+        }
+        let r = n / self.n50_cycles;
+        let e = 2.7 + 0.7 * r;
+        let re = r.powf(e);
+        if re.is_infinite() { 1.0 } else { re / (1.0 + re) }
+    }
+
+    /// Detection probability of an object of `critical_px` at `cnr`.
+    #[must_use]
+    pub fn probability(&self, critical_px: f64, cnr: f64) -> f64 {
+        self.probability_from_cycles(self.cycles(critical_px, cnr))
+    }
+}
+
+/// Robust temporal noise estimate of an image (DN): MAD of horizontal differences (see the
+/// module docs), at least [`QUANTISATION_STD_DN`].
+#[must_use]
+pub fn estimate_noise_std_dn(image: &[f32], width: u32, height: u32) -> f64 {
+    let w = width as usize;
+    let mut diffs: Vec<f32> = Vec::with_capacity(image.len());
+    for row in image.chunks_exact(w.max(1)).take(height as usize) {
+        diffs.extend(row.windows(2).map(|p| (p[1] - p[0]).abs()));
+    }
+    if diffs.is_empty() {
+        return QUANTISATION_STD_DN;
+    }
+    let mid = diffs.len() / 2;
+    let (_, median, _) = diffs.select_nth_unstable_by(mid, f32::total_cmp);
+    (1.4826 * f64::from(*median) / std::f64::consts::SQRT_2).max(QUANTISATION_STD_DN)
+}
+
+/// Contrast-to-noise ratio of an object against its ring (step 2 of the module docs).
+#[must_use]
+pub fn object_cnr(input: &DetectorInput<'_>, object: &GtObject, sigma_dn: f64) -> f64 {
+    let (w, h) = (input.width as i64, input.height as i64);
+    let margin = (0.25 * f64::from(object.visible_px).sqrt()).max(2.0).round() as i64;
+    let [bx, by, bw, bh] = object.bbox;
+    let x0 = (bx as i64 - margin).max(0);
+    let y0 = (by as i64 - margin).max(0);
+    let x1 = ((bx + bw) as i64 + margin).min(w);
+    let y1 = ((by + bh) as i64 + margin).min(h);
+    let (mut so, mut no, mut sr, mut nr) = (0.0f64, 0u64, 0.0f64, 0u64);
+    for y in y0..y1 {
+        for x in x0..x1 {
+            let i = (y * w + x) as usize;
+            let v = f64::from(input.image_dn[i]);
+            if input.instance_id[i] == object.instance_id {
+                so += v;
+                no += 1;
+            } else {
+                sr += v;
+                nr += 1;
+            }
+        }
+    }
+    if no == 0 {
+        return 0.0;
+    }
+    if nr == 0 {
+        // The object fills the frame: nothing to contrast with, but nothing to miss either.
+        return f64::INFINITY;
+    }
+    (so / no as f64 - sr / nr as f64).abs() / sigma_dn
+}
+
+fn jitter_box(b: [f64; 4], model: &DetectabilityModel, width: u32, height: u32, rng: &mut impl Rng) -> [f64; 4] {
+    let sx = model.loc_error_px + model.loc_error_fraction * b[2];
+    let sy = model.loc_error_px + model.loc_error_fraction * b[3];
+    let x0 = (b[0] + sx * normal(rng)).clamp(0.0, f64::from(width));
+    let x1 = (b[0] + b[2] + sx * normal(rng)).clamp(0.0, f64::from(width));
+    let y0 = (b[1] + sy * normal(rng)).clamp(0.0, f64::from(height));
+    let y1 = (b[1] + b[3] + sy * normal(rng)).clamp(0.0, f64::from(height));
+    let (x0, x1) = (x0.min(x1), x0.max(x1));
+    let (y0, y1) = (y0.min(y1), y0.max(y1));
+    [x0, y0, (x1 - x0).max(1.0), (y1 - y0).max(1.0)]
+}
+
+impl Detector for DetectabilityModel {
+    /// Objects in instance-id order, then false positives in cell order.
+    ///
+    /// # Panics
+    /// If the image or instance buffer is not `width x height`.
+    fn detect(&self, input: &DetectorInput<'_>) -> Vec<Detection> {
+        let n = input.width as usize * input.height as usize;
+        assert_eq!(input.image_dn.len(), n, "image must be width x height");
+        assert_eq!(input.instance_id.len(), n, "instance buffer must be width x height");
+        let sigma = input
+            .noise_std_dn
+            .filter(|s| s.is_finite() && *s > 0.0)
+            .unwrap_or_else(|| estimate_noise_std_dn(input.image_dn, input.width, input.height))
+            .max(QUANTISATION_STD_DN);
+        let mut out = Vec::new();
+        let mut objects: Vec<&GtObject> = input.objects.iter().filter(|o| o.counted).collect();
+        objects.sort_by_key(|o| o.instance_id);
+        for o in &objects {
+            let cnr = object_cnr(input, o, sigma);
+            let p = self.probability(f64::from(o.visible_px).sqrt(), cnr);
+            let mut rng = rng::substream(input.frame_seed, "detection/object", u64::from(o.instance_id));
+            if rng.random::<f64>() < p {
+                out.push(Detection {
+                    category_id: o.class_id,
+                    bbox: jitter_box(o.bbox, self, input.width, input.height, &mut rng),
+                    score: p,
+                });
+            }
+        }
+        self.false_positives(input, sigma, &mut out);
+        out
+    }
+}
+
+impl DetectabilityModel {
+    fn false_positives(&self, input: &DetectorInput<'_>, sigma: f64, out: &mut Vec<Detection>) {
+        if self.false_positive_rate.is_nan() || self.false_positive_rate <= 0.0 {
+            return;
+        }
+        let (w, h) = (input.width, input.height);
+        let scale = (f64::from(w) * f64::from(h) / super::ground_truth::VGA_PIXELS).sqrt();
+        let cell = (self.clutter_cell_px_vga * scale).round().max(8.0) as u32;
+        let counted: Vec<u32> = input.objects.iter().filter(|o| o.counted).map(|o| o.instance_id).collect();
+        let mut index = 0u64;
+        for cy in (0..h).step_by(cell as usize) {
+            for cx in (0..w).step_by(cell as usize) {
+                index += 1;
+                let (x1, y1) = ((cx + cell).min(w), (cy + cell).min(h));
+                let (mut s, mut s2, mut k, mut on_object) = (0.0f64, 0.0f64, 0u64, 0u64);
+                for y in cy..y1 {
+                    for x in cx..x1 {
+                        let i = y as usize * w as usize + x as usize;
+                        let v = f64::from(input.image_dn[i]);
+                        s += v;
+                        s2 += v * v;
+                        k += 1;
+                        if counted.contains(&input.instance_id[i]) {
+                            on_object += 1;
+                        }
+                    }
+                }
+                if k < 4 || on_object > 0 {
+                    continue;
+                }
+                let mean = s / k as f64;
+                let std = (s2 / k as f64 - mean * mean).max(0.0).sqrt();
+                if std <= 3.0 * sigma {
+                    continue;
+                }
+                let mut rng = rng::substream(input.frame_seed, "detection/false_positive", index);
+                if rng.random::<f64>() < self.false_positive_rate {
+                    let category_id = rng.random_range(1..=crate::scene::THRESHOLD_CLASS_ID);
+                    let b = [f64::from(cx), f64::from(cy), f64::from(x1 - cx), f64::from(y1 - cy)];
+                    let bbox = jitter_box(b, self, w, h, &mut rng);
+                    let score = rng.random::<f64>() * self.max_false_positive_score;
+                    out.push(Detection { category_id, bbox, score });
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn probability_is_half_at_n50_and_monotone() {
+        let m = DetectabilityModel::detection();
+        assert!((m.probability_from_cycles(1.5) - 0.5).abs() < 1e-12);
+        assert_eq!(m.probability_from_cycles(0.0), 0.0);
+        let mut last = 0.0;
+        for i in 1..100 {
+            let p = m.probability_from_cycles(f64::from(i) * 0.1);
+            assert!(p > last, "P rises with cycles");
+            last = p;
+        }
+        assert!(m.probability_from_cycles(6.0) > 0.999);
+        // Clean: N = D / 2; noisy: the bar grows to k / CNR px.
+        assert_eq!(m.cycles(20.0, 100.0), 10.0);
+        assert_eq!(m.cycles(20.0, 0.5), 1.0);
+        assert!(m.probability(20.0, 0.5) < m.probability(20.0, 2.0));
+        assert!(m.probability(8.0, 10.0) < m.probability(16.0, 10.0));
+        assert!(DetectabilityModel::recognition().probability(8.0, 10.0) < m.probability(8.0, 10.0));
+    }
+
+    #[test]
+    fn noise_estimate_recovers_white_noise() {
+        let mut r = rng::stream(1, "test");
+        let (w, h) = (200u32, 100u32);
+        // A step edge plus noise of std 4: the MAD estimate ignores the edge.
+        let img: Vec<f32> =
+            (0..w * h).map(|i| if i % w < w / 2 { 50.0 } else { 150.0 } + (4.0 * normal(&mut r)) as f32).collect();
+        let s = estimate_noise_std_dn(&img, w, h);
+        assert!((s - 4.0).abs() < 0.25, "{s}");
+        assert_eq!(estimate_noise_std_dn(&vec![7.0; 100], 10, 10), QUANTISATION_STD_DN);
+    }
+}
