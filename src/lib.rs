@@ -34,6 +34,7 @@
 
 pub mod assets;
 pub mod calibration;
+pub mod camera_spec;
 pub mod config;
 pub mod decor;
 pub mod export;
@@ -45,9 +46,11 @@ pub mod manifest;
 pub mod materials;
 pub mod orb;
 pub mod placement;
+pub mod radiometry;
 pub mod render;
 pub mod rng;
 pub mod scene;
 pub mod sensor;
 pub mod structure;
 pub mod textures;
+pub mod trajectory;
