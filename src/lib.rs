@@ -21,6 +21,10 @@
 //! * [`render`]: the CPU ray tracer (radiance per light group, depth, instance/class ids).
 //! * [`sensor`]: the sensor catalog and the EMVA 1288 noise model (photons to DN), shared by the
 //!   renderer, the calibration and the gap workflow.
+//! * [`camera_spec`]: camera candidates (sensor, lens, mounting, exposure) from TOML or the
+//!   inline `SENSOR,key=value` form, resolved against the catalog.
+//! * [`radiometry`]: scene luminance to sensor illuminance, photons, electrons and DN.
+//! * [`trajectory`]: the agent's walk through every room and door (the evaluator's poses).
 //! * [`calibration`]: EMVA 1288 descriptors and photon-transfer CSVs to measured sensor
 //!   parameters (`scene-gen calibrate`).
 //!
