@@ -70,7 +70,7 @@ impl Default for TrajectoryParams {
 }
 
 /// One camera pose on the walk.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct Pose {
     /// Camera centre, world metres (z = mounting height).
     pub position: Vec3,
@@ -81,7 +81,7 @@ pub struct Pose {
 }
 
 /// The agent passing a door (and stepping over its threshold).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct Crossing {
     pub threshold_id: u32,
     /// First pose beyond the door plane.
@@ -90,7 +90,7 @@ pub struct Crossing {
 }
 
 /// A planned walk.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct Trajectory {
     pub poses: Vec<Pose>,
     /// Every door passage, in time order.

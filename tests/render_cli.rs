@@ -116,6 +116,7 @@ fn small_render_writes_consistent_files_deterministically() {
         "frame_0000_instances.png",
         "frame_0000_night.json",
         "frame_0000_night.png",
+        "trajectory.json",
     ];
     assert_eq!(names, expected);
     for name in expected {
@@ -143,6 +144,11 @@ fn small_render_writes_consistent_files_deterministically() {
         assert_eq!(lux, if lighting == "day" { 20.0 } else { 2.0 });
         assert_eq!(side["gain_db"].as_f64().unwrap(), if lighting == "day" { 5.0 } else { 15.0 });
     }
+    let walk = json(&a.join("trajectory.json"));
+    let first = &walk["poses"][0]["position"];
+    let side = json(&a.join("frame_0000_day.json"));
+    assert_eq!(first[0], side["pose"]["position"][0], "frame 0 is taken at the walk's first pose");
+    assert!(!walk["crossings"].as_array().unwrap().is_empty(), "the walk passes doors");
     // Depth: some hits in range, in millimetres (the house is at most ~21 m across).
     let depth = values(&read_png(&a.join("frame_0000_depth.png")));
     let hits: Vec<f64> = depth.iter().copied().filter(|&d| d > 0.0).collect();

@@ -22,6 +22,9 @@
 //! * `frame_kkkk_instances.png`: 16-bit instance ids (0 = none; the manifest's
 //!   `instance_id`s of objects and thresholds).
 //!
+//! and once, `trajectory.json`: the whole walk (poses with position, yaw_deg, time_s; the door
+//! crossings with threshold_id, pose_index, time_s; the agent radius used).
+//!
 //! Day and night come from one trace: the lights of each group are scaled so the mean
 //! illuminance on the 0.75 m plane is 20 lux by day and 2 lux by night (TaCOS).
 //! Every output is encoded before the first file is written.
@@ -284,6 +287,10 @@ pub fn run(args: &RenderArgs) -> Result<(), CliError> {
         files.push((format!("{stem}_depth.png"), depth_png(&frame)));
         files.push((format!("{stem}_instances.png"), instances_png(&frame)));
     }
+
+    let mut walk_json = serde_json::to_string_pretty(&walk).map_err(failure)?;
+    walk_json.push('\n');
+    files.push(("trajectory.json".to_string(), walk_json.into_bytes()));
 
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create output folder {}", args.out.display()))
