@@ -23,6 +23,10 @@
 //!   renderer, the calibration and the gap workflow.
 //! * [`detection`]: ground truth from instance buffers, the built-in detectability model,
 //!   COCO evaluation (pycocotools-exact AP) and threshold visibility.
+//! * [`camera_spec`]: camera candidates (sensor, lens, mounting, exposure) from TOML or the
+//!   inline `SENSOR,key=value` form, resolved against the catalog.
+//! * [`radiometry`]: scene luminance to sensor illuminance, photons, electrons and DN.
+//! * [`trajectory`]: the agent's walk through every room and door (the evaluator's poses).
 //! * [`calibration`]: EMVA 1288 descriptors and photon-transfer CSVs to measured sensor
 //!   parameters (`scene-gen calibrate`).
 //!
@@ -36,6 +40,7 @@
 
 pub mod assets;
 pub mod calibration;
+pub mod camera_spec;
 pub mod config;
 pub mod decor;
 pub mod detection;
@@ -48,9 +53,11 @@ pub mod manifest;
 pub mod materials;
 pub mod orb;
 pub mod placement;
+pub mod radiometry;
 pub mod render;
 pub mod rng;
 pub mod scene;
 pub mod sensor;
 pub mod structure;
 pub mod textures;
+pub mod trajectory;

@@ -3,6 +3,7 @@
 mod calibrate;
 mod generate;
 mod orb;
+mod render;
 mod sensors;
 
 use clap::{Parser, Subcommand};
@@ -50,6 +51,8 @@ pub enum Command {
     Orb(orb::OrbArgs),
     /// Cross-checked ORB matches between two images and their RANSAC fundamental-matrix inliers.
     Match(orb::MatchArgs),
+    /// Sensor images, depth and instance masks of a camera walking through a generated house.
+    Render(render::RenderArgs),
 }
 
 pub fn parse() -> Cli {
@@ -63,5 +66,6 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Some(Command::Calibrate(args)) => calibrate::run(&args),
         Some(Command::Orb(args)) => orb::run_orb(&args),
         Some(Command::Match(args)) => orb::run_match(&args),
+        Some(Command::Render(args)) => render::run(&args),
     }
 }

@@ -1,0 +1,360 @@
+//! `scene-gen render`: frames of a camera walking through a generated house, by day and night.
+//!
+//! The manifest `scene.json` holds the semantic view only, not the geometry, so the house is
+//! **regenerated** from the manifest's seed and envelope (and wall thickness) with the
+//! embedded libraries and `--min-room` (default 5 m, the generator's default); the
+//! regenerated manifest must equal the file field for field, and the schema and generator
+//! version must be this binary's, else the input is refused (exit 2): a house generated with
+//! another version or other libraries cannot be rebuilt faithfully.
+//!
+//! Frames are taken at the first `--frames` poses of the agent's walk
+//! ([`scene_gen::trajectory`]). Per frame `k` (`kkkk` zero-padded):
+//!
+//! * `frame_kkkk_day.png` / `frame_kkkk_night.png`: the sensor image. EMVA and `noise = "off"`:
+//!   grey, raw DN at the ADC depth: 8-bit PNG for sensors of at most 8 bits, else 16-bit PNG
+//!   holding the DN unscaled (a 12-bit sensor's values stay in 0..4095). Affine noise: 8-bit
+//!   RGB.
+//! * `frame_kkkk_day.json` / `..._night.json`: intrinsics (fx, fy, cx, cy in px, OpenCV
+//!   convention: pixel centres at integer coordinates), pose, exposure,
+//!   gain, illuminance on the 0.75 m plane (the target after scaling and the value measured
+//!   before), and the image mean and variance in DN (population variance over every value).
+//! * `frame_kkkk_depth.png`: 16-bit z-depth in millimetres; 0 = no hit or beyond 65.535 m.
+//! * `frame_kkkk_instances.png`: 16-bit instance ids (0 = none; the manifest's
+//!   `instance_id`s of objects and thresholds).
+//!
+//! and once, `trajectory.json`: the whole walk (poses with position, yaw_deg, time_s; the door
+//! crossings with threshold_id, pose_index, time_s; the agent radius used).
+//!
+//! Day and night come from one trace: the lights of each group are scaled so the mean
+//! illuminance on the 0.75 m plane is 20 lux by day and 2 lux by night (TaCOS).
+//! Every output is encoded before the first file is written.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, anyhow};
+use clap::{Args, ValueEnum};
+use scene_gen::camera_spec::{CameraSpec, ResolvedCamera};
+use scene_gen::config::GeneratorConfig;
+use scene_gen::export::write_atomic;
+use scene_gen::generate::generate;
+use scene_gen::library::Library;
+use scene_gen::lights::{DAY_TARGET_LUX, NIGHT_TARGET_LUX, TARGET_PLANE_M};
+use scene_gen::manifest::Manifest;
+use scene_gen::radiometry::{Capture, capture};
+use scene_gen::render::{Frame, RenderSettings, Renderer, measure_mean_illuminance};
+use scene_gen::scene::{LightGroup, MANIFEST_SCHEMA, Scene};
+use scene_gen::sensor::Catalog;
+use scene_gen::trajectory::{self, Pose, TrajectoryParams};
+use serde::Serialize;
+
+use super::{CliError, bad_input, failure};
+
+/// Which scenarios to render.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Lighting {
+    Day,
+    Night,
+    Both,
+}
+
+/// Sample-count presets of the ray tracer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Quality {
+    /// One ray per pixel, no bounce light.
+    Preview,
+    /// 2x2 pixel samples, one-bounce indirect light.
+    Standard,
+    /// 4x4 pixel samples, more bounce rays.
+    High,
+}
+
+#[derive(Args, Debug)]
+pub struct RenderArgs {
+    /// The house's manifest, DIR/scene.json, as `scene-gen --seed N` wrote it.
+    #[arg(long)]
+    pub scene: PathBuf,
+    /// Camera: a TOML file or `SENSOR[,focal_mm=F][,pitch_deg=P][,height_m=H][,key=value...]`.
+    #[arg(long)]
+    pub camera: String,
+    #[arg(long, value_enum, default_value_t = Lighting::Both)]
+    pub lighting: Lighting,
+    /// Output folder (created if missing).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Frames, at the first poses of the walk (one every 0.25 m).
+    #[arg(long, default_value_t = 1)]
+    pub frames: u32,
+    /// Bin the sensor down to at most this width in pixels (keeps the field of view).
+    #[arg(long)]
+    pub max_width: Option<u32>,
+    #[arg(long, value_enum, default_value_t = Quality::Standard)]
+    pub quality: Quality,
+    /// --min-room the house was generated with.
+    #[arg(long, default_value_t = 5.0)]
+    pub min_room: f32,
+}
+
+#[derive(Serialize)]
+struct Intrinsics {
+    fx: f64,
+    fy: f64,
+    cx: f64,
+    cy: f64,
+}
+
+#[derive(Serialize)]
+struct PoseOut {
+    position: [f32; 3],
+    yaw_deg: f32,
+    pitch_deg: f32,
+    time_s: f32,
+}
+
+#[derive(Serialize)]
+struct Sidecar<'a> {
+    scene_seed: u64,
+    frame: u32,
+    lighting: &'a str,
+    sensor: &'a str,
+    width: u32,
+    height: u32,
+    channels: u8,
+    bits: u32,
+    png_bit_depth: u8,
+    bin_factor: f64,
+    pixel_pitch_um: f32,
+    focal_mm: f32,
+    f_number: f32,
+    intrinsics: Intrinsics,
+    pose: PoseOut,
+    exposure_s: f64,
+    gain_db: f64,
+    noise: scene_gen::camera_spec::NoiseKind,
+    /// Mean illuminance on the 0.75 m plane after scaling the lights (the scenario target).
+    plane_lux: f32,
+    /// The same, measured with the lights at their nominal intensities.
+    plane_lux_nominal: f32,
+    light_scale: f32,
+    mean_dn: f64,
+    variance_dn2: f64,
+}
+
+/// Reads the manifest and regenerates its house.
+fn load_scene(path: &Path, min_room_m: f32) -> Result<Scene, CliError> {
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("cannot read --scene {}", path.display()))
+        .map_err(bad_input)?;
+    let manifest: Manifest = serde_json::from_str(&text)
+        .with_context(|| format!("{}: not a scene-gen manifest", path.display()))
+        .map_err(bad_input)?;
+    if manifest.schema != MANIFEST_SCHEMA {
+        return Err(bad_input(anyhow!("{}: schema '{}' is not '{MANIFEST_SCHEMA}'", path.display(), manifest.schema)));
+    }
+    let version = env!("CARGO_PKG_VERSION");
+    if manifest.generator_version != version {
+        return Err(bad_input(anyhow!(
+            "{}: generated by scene-gen {}, this is {version}; the house cannot be rebuilt faithfully",
+            path.display(),
+            manifest.generator_version
+        )));
+    }
+    let library = Library::embedded().map_err(failure)?;
+    let config = GeneratorConfig {
+        seed: manifest.seed,
+        envelope: manifest.envelope,
+        min_room_m,
+        wall_thickness_m: manifest.wall_thickness_m,
+    };
+    config.validate().map_err(bad_input)?;
+    let scene = generate(&config, &library).map_err(bad_input)?;
+    if Manifest::of(&scene) != manifest {
+        return Err(bad_input(anyhow!(
+            "{}: the house regenerated from seed {} and its envelope differs from the manifest \
+             (generated with another --min-room, other --rooms/--furniture libraries, or edited?)",
+            path.display(),
+            manifest.seed
+        )));
+    }
+    Ok(scene)
+}
+
+fn png_gray16(width: u32, height: u32, values: Vec<u16>) -> Vec<u8> {
+    let img = image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::from_raw(width, height, values).expect("sizes match");
+    encode(&image::DynamicImage::ImageLuma16(img))
+}
+
+fn encode(img: &image::DynamicImage) -> Vec<u8> {
+    let mut out = std::io::Cursor::new(Vec::new());
+    img.write_to(&mut out, image::ImageFormat::Png).expect("PNG encoding into memory");
+    out.into_inner()
+}
+
+/// The PNG of a capture and its bit depth.
+fn capture_png(cap: &Capture) -> (Vec<u8>, u8) {
+    let (w, h) = (cap.width, cap.height);
+    if cap.channels == 3 {
+        let bytes: Vec<u8> = cap.dn.iter().map(|&v| v.min(255) as u8).collect();
+        let img = image::RgbImage::from_raw(w, h, bytes).expect("sizes match");
+        (encode(&image::DynamicImage::ImageRgb8(img)), 8)
+    } else if cap.bits <= 8 {
+        let bytes: Vec<u8> = cap.dn.iter().map(|&v| v.min(255) as u8).collect();
+        let img = image::GrayImage::from_raw(w, h, bytes).expect("sizes match");
+        (encode(&image::DynamicImage::ImageLuma8(img)), 8)
+    } else {
+        (png_gray16(w, h, cap.dn.clone()), 16)
+    }
+}
+
+fn depth_png(frame: &Frame) -> Vec<u8> {
+    let mm = frame
+        .depth_m
+        .iter()
+        .map(|&d| {
+            let v = (f64::from(d) * 1000.0).round();
+            if v.is_finite() && v > 0.0 && v <= 65535.0 { v as u16 } else { 0 }
+        })
+        .collect();
+    png_gray16(frame.width, frame.height, mm)
+}
+
+fn instances_png(frame: &Frame) -> Vec<u8> {
+    let ids = frame.instance_id.iter().map(|&i| u16::try_from(i).unwrap_or(u16::MAX)).collect();
+    png_gray16(frame.width, frame.height, ids)
+}
+
+pub fn run(args: &RenderArgs) -> Result<(), CliError> {
+    // Every input check before any work.
+    let mut spec = CameraSpec::from_arg(&args.camera).map_err(bad_input)?;
+    if let Some(m) = args.max_width {
+        if m == 0 {
+            return Err(bad_input(anyhow!("--max-width must be at least 1")));
+        }
+        spec.max_width_px = Some(m);
+    }
+    if args.frames == 0 {
+        return Err(bad_input(anyhow!("--frames must be at least 1")));
+    }
+    let catalog = Catalog::embedded();
+    let resolved = spec.resolve(&catalog).map_err(bad_input)?;
+    let scene = load_scene(&args.scene, args.min_room)?;
+
+    let params = TrajectoryParams { height_m: spec.height_m, ..TrajectoryParams::default() };
+    let walk = trajectory::plan(&scene, &params).map_err(failure)?;
+    let settings = match args.quality {
+        Quality::Preview => RenderSettings::preview(),
+        Quality::Standard => RenderSettings::standard(),
+        Quality::High => RenderSettings::high(),
+    };
+    let renderer = Renderer::new(&scene, settings);
+    let groups: Vec<LightGroup> = match args.lighting {
+        Lighting::Day => vec![LightGroup::Day],
+        Lighting::Night => vec![LightGroup::Night],
+        Lighting::Both => vec![LightGroup::Day, LightGroup::Night],
+    };
+    // (group, nominal lux, scale)
+    let mut scales = Vec::new();
+    for &g in &groups {
+        let target = if g == LightGroup::Day { DAY_TARGET_LUX } else { NIGHT_TARGET_LUX };
+        let nominal = measure_mean_illuminance(&renderer, g, TARGET_PLANE_M).map_err(failure)?;
+        if nominal <= 0.0 {
+            return Err(failure(anyhow!("{g:?} lights give no light on the {TARGET_PLANE_M} m plane")));
+        }
+        scales.push((g, nominal, target / nominal, target));
+    }
+
+    let mut files: Vec<(String, Vec<u8>)> = Vec::new();
+    for k in 0..args.frames {
+        let pose: Pose = walk.poses[(k as usize).min(walk.poses.len() - 1)];
+        let camera = resolved.camera_at(&pose);
+        let frame = renderer.render(&camera).map_err(bad_input)?;
+        let stem = format!("frame_{k:04}");
+        for &(g, nominal, scale, target) in &scales {
+            let name = if g == LightGroup::Day { "day" } else { "night" };
+            let radiance = if g == LightGroup::Day { frame.mix(scale, 0.0) } else { frame.mix(0.0, scale) };
+            let gain_db = if g == LightGroup::Day { spec.gain_day_db } else { spec.gain_night_db };
+            let pattern_seed = scene.seed;
+            let frame_seed = scene_gen::rng::fnv1a64(format!("{}/{k}/{name}", scene.seed).as_bytes());
+            let cap = capture(&resolved, &camera, &radiance, gain_db, pattern_seed, frame_seed);
+            let (png, depth) = capture_png(&cap);
+            let (mean_dn, variance_dn2) = cap.mean_variance();
+            let sidecar = sidecar(&resolved, &scene, k, name, &cap, depth, &pose, gain_db, target, nominal, scale);
+            let sidecar = Sidecar { mean_dn, variance_dn2, ..sidecar };
+            let mut json = serde_json::to_string_pretty(&sidecar).map_err(failure)?;
+            json.push('\n');
+            files.push((format!("{stem}_{name}.png"), png));
+            files.push((format!("{stem}_{name}.json"), json.into_bytes()));
+        }
+        files.push((format!("{stem}_depth.png"), depth_png(&frame)));
+        files.push((format!("{stem}_instances.png"), instances_png(&frame)));
+    }
+
+    let mut walk_json = serde_json::to_string_pretty(&walk).map_err(failure)?;
+    walk_json.push('\n');
+    files.push(("trajectory.json".to_string(), walk_json.into_bytes()));
+
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("cannot create output folder {}", args.out.display()))
+        .map_err(failure)?;
+    for (name, bytes) in &files {
+        write_atomic(&args.out.join(name), bytes).map_err(|e| failure(anyhow!(e)))?;
+    }
+    for &(g, nominal, scale, target) in &scales {
+        println!("{g:?}: {nominal:.3} lux nominal on the {TARGET_PLANE_M} m plane, scaled x{scale:.4} to {target} lux");
+    }
+    println!("wrote {} files to {}", files.len(), args.out.display());
+    Ok(())
+}
+
+#[allow(clippy::too_many_arguments)]
+fn sidecar<'a>(
+    resolved: &'a ResolvedCamera,
+    scene: &Scene,
+    k: u32,
+    name: &'a str,
+    cap: &Capture,
+    png_bit_depth: u8,
+    pose: &Pose,
+    gain_db: f64,
+    target: f32,
+    nominal: f32,
+    scale: f32,
+) -> Sidecar<'a> {
+    let spec = &resolved.spec;
+    let f = resolved.focal_px();
+    Sidecar {
+        scene_seed: scene.seed,
+        frame: k,
+        lighting: name,
+        sensor: &resolved.sensor.model,
+        width: cap.width,
+        height: cap.height,
+        channels: cap.channels,
+        bits: cap.bits,
+        png_bit_depth,
+        bin_factor: resolved.bin_factor,
+        pixel_pitch_um: resolved.pixel_pitch_um,
+        focal_mm: spec.focal_mm,
+        f_number: spec.f_number,
+        // OpenCV convention (pixel centres at integers): the image centre is at (w/2 - 0.5, h/2 - 0.5).
+        intrinsics: Intrinsics {
+            fx: f,
+            fy: f,
+            cx: f64::from(cap.width) * 0.5 - 0.5,
+            cy: f64::from(cap.height) * 0.5 - 0.5,
+        },
+        pose: PoseOut {
+            position: pose.position.truncate().extend(spec.height_m).to_array(),
+            yaw_deg: pose.yaw_deg + spec.yaw_offset_deg,
+            pitch_deg: spec.pitch_deg,
+            time_s: pose.time_s,
+        },
+        exposure_s: spec.exposure_s,
+        gain_db,
+        noise: spec.noise,
+        plane_lux: target,
+        plane_lux_nominal: nominal,
+        light_scale: scale,
+        mean_dn: 0.0,
+        variance_dn2: 0.0,
+    }
+}
