@@ -4,11 +4,18 @@
 //! The pipeline of DESIGN.md and the module that owns each stage:
 //!
 //! ```text
-//! seed + envelope ─► floorplan ─► structure ─► placement ─► lights ─► Scene ─┬─► export (glTF/GLB, plan.png)
-//!  (config)          (rooms/)     walls,       (furniture/)  day/night        │
-//!                                 thresholds                                  └─► renderer, evaluator, ...
+//! seed + envelope ─► floorplan ─► structure ─► placement ─► decor, lights ─► Scene ─┬─► export: glTF/GLB, OBJ, USD, plan.png
+//!  (config)          (library:    walls,       (library:    day / night          │
+//!                     rooms/)     thresholds    furniture/)                      ├─► trajectory: the agent's walk
+//!                                                                                └─► render (obvhs BVH): radiance per light group,
+//!                                                                                      depth, instance ids
+//!                                                      camera_spec + sensor catalog ──► radiometry: nit → lux → photons → e-
+//!                                                                                      → sensor noise model → DN
+//!                                                                                    ──► detection (AP), orb (features)
+//! measured data (EMVA 1288, CSV) ─► calibration ─► sensor model (TOML)
 //! ```
 //!
+//! Generation:
 //! * [`config`]: what is asked for ([`config::GeneratorConfig`]) and its validation.
 //! * [`library`]: the room-type and furniture libraries (embedded, or folders at run time).
 //! * [`generate`]: runs the stages in order and returns a [`scene::Scene`].
@@ -17,16 +24,21 @@
 //! * [`materials`]: named surfaces to PBR materials with seeded procedural textures
 //!   ([`textures`]).
 //! * [`scene`]: the hub type; [`manifest`]: its `scene.json` form.
-//! * [`export`]: glTF/GLB, the plan picture, atomic writes.
-//! * [`render`]: the CPU ray tracer (radiance per light group, depth, instance/class ids).
-//! * [`sensor`]: the sensor catalog and the EMVA 1288 noise model (photons to DN), shared by the
-//!   renderer, the calibration and the gap workflow.
-//! * [`detection`]: ground truth from instance buffers, the built-in detectability model,
-//!   COCO evaluation (pycocotools-exact AP) and threshold visibility.
+//! * [`export`]: glTF/GLB, OBJ, USD (through usd-core), the plan picture, atomic writes.
+//!
+//! Camera simulation:
 //! * [`camera_spec`]: camera candidates (sensor, lens, mounting, exposure) from TOML or the
 //!   inline `SENSOR,key=value` form, resolved against the catalog.
-//! * [`radiometry`]: scene luminance to sensor illuminance, photons, electrons and DN.
 //! * [`trajectory`]: the agent's walk through every room and door (the evaluator's poses).
+//! * [`render`]: the CPU ray tracer (radiance per light group, depth, instance/class ids).
+//! * [`radiometry`]: scene luminance to sensor illuminance, photons, electrons and DN.
+//! * [`sensor`]: the sensor catalog and the EMVA 1288 noise model (photons to DN), shared by the
+//!   renderer, the calibration and the gap workflow.
+//!
+//! Tasks and measurement:
+//! * [`detection`]: ground truth from instance buffers, the built-in detectability model,
+//!   COCO evaluation (pycocotools-exact AP) and threshold visibility.
+//! * [`orb`]: OpenCV-compatible ORB features, cross-checked matching, RANSAC inliers.
 //! * [`calibration`]: EMVA 1288 descriptors and photon-transfer CSVs to measured sensor
 //!   parameters (`scene-gen calibrate`).
 //!
