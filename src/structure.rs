@@ -6,7 +6,7 @@
 //! repeat covers 1 m x 1 m everywhere.
 //!
 //! Walls are solid boxes of the wall thickness around their centre-line segment. Corners close
-//! without overlapping faces by one rule per wall end (see [`end_extension`]): walls along X
+//! without overlapping faces by one rule per wall end (see `end_extension`): walls along X
 //! own the square where centre lines meet, walls along Y stop at its face, and collinear walls
 //! butt at the centre point. Openings are cut by splitting each side face into columns.
 //!

@@ -16,7 +16,7 @@
 //! * **Materials** are metallic-roughness with the baked texture as `baseColorTexture`; one
 //!   sampler, REPEAT both ways with trilinear mipmapping (texture coordinates are metres).
 //! * **Lights** use `KHR_lights_punctual`, each on its own node `light_<id>` with `extras`
-//!   {group, id}; see [`light`] for how rectangle lights are approximated.
+//!   {group, id}; see the private `light` function for how rectangle lights are approximated.
 //!
 //! The output is a pure function of the scene: same scene, same bytes.
 

@@ -93,7 +93,7 @@ pub struct ReadNoiseSplit {
     pub post_gain_fraction: f64,
 }
 
-/// Rounding to integer DN (its variance is 1/12 DN^2). Off: [`SensorModel::simulate_dn`]
+/// Rounding to integer DN (its variance is 1/12 DN^2). Off: [`SensorModel::simulate_dn_with`]
 /// returns continuous values; [`SensorModel::simulate`] must round to fill `u16` anyway.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
