@@ -57,7 +57,7 @@ pub struct Sensor {
     pub dark_current_e_per_s: f64,
     /// True when any noise parameter is an estimate rather than a published figure.
     pub estimated: bool,
-    /// Where the noise parameters come from: a URL or "estimate: &lt;rule&gt;".
+    /// Where the noise parameters come from: a URL or `"estimate: <rule>"`.
     pub source: String,
     /// Where the geometry comes from.
     #[serde(default)]
