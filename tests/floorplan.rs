@@ -349,7 +349,7 @@ fn bounds(points: &[Vec3]) -> (Vec3, Vec3) {
 
 /// Seeds per envelope run through the whole pipeline (materials included); plan-only checks run
 /// over 1000 seeds per envelope in `every_plan_is_valid_over_many_seeds`.
-const FULL_PIPELINE_SEEDS: u64 = 100;
+const FULL_PIPELINE_SEEDS: u64 = 500;
 
 #[test]
 fn every_seed_gives_a_valid_house_in_every_envelope() {
