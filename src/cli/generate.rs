@@ -18,10 +18,10 @@ use super::{CliError, bad_input, failure};
 pub enum Format {
     /// Binary glTF, one file.
     Glb,
-    /// Wavefront OBJ + MTL + textures/, Y up, one group per object.
-    Obj,
     /// glTF JSON with a separate scene.bin and textures/*.png.
     Gltf,
+    /// Wavefront OBJ + MTL + textures/, Y up, one group per object.
+    Obj,
     /// USD text layer + textures/, Z up, metres, semantics labels (needs usd-core).
     Usda,
     /// USD binary (crate) layer + textures/ (needs usd-core).
