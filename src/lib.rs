@@ -23,6 +23,8 @@
 //!   renderer, the calibration and the gap workflow.
 //! * [`calibration`]: EMVA 1288 descriptors and photon-transfer CSVs to measured sensor
 //!   parameters (`scene-gen calibrate`).
+//! * [`gap`]: the sim-vs-measured gap workflow (`scene-gen gap`): names the effects the sensor
+//!   model misses and adds them.
 //!
 //! ```no_run
 //! use scene_gen::{config::GeneratorConfig, generate::generate, library::Library};
@@ -38,6 +40,7 @@ pub mod config;
 pub mod decor;
 pub mod export;
 pub mod floorplan;
+pub mod gap;
 pub mod generate;
 pub mod library;
 pub mod lights;
