@@ -68,3 +68,70 @@ fn debug_case() {
         println!("     r{} {} drop {:.1} pen {:.1}", tr.round, tr.effect, tr.chi2_drop, tr.penalty);
     }
 }
+
+fn data_dir() -> PathBuf {
+    let manifest = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut candidates: Vec<PathBuf> = std::env::var_os("SCENE_GEN_DATA").map(PathBuf::from).into_iter().collect();
+    candidates.push(manifest.join("../shared/data"));
+    candidates.push(manifest.join("../../shared/data"));
+    candidates
+        .iter()
+        .find(|p| p.join("emva1288-set003-crop").is_dir())
+        .cloned()
+        .unwrap_or_else(|| panic!("EMVA 1288 data set 003 not found in {candidates:?}; set SCENE_GEN_DATA"))
+}
+
+#[test]
+fn set003_probe() {
+    if std::env::var("GAP_003").is_err() {
+        return;
+    }
+    let desc = data_dir().join("emva1288-set003-crop/EMVA1288_Data.txt");
+    let t = std::time::Instant::now();
+    let opts = GapOptions { max_stack_frames: Some(16), step_stride: 2, ..GapOptions::default() };
+    let r = gap::run(&desc, None, &opts).unwrap();
+    println!(
+        "named {:?} gap {:.3} -> {:.3} ({:.2}s)",
+        r.named(),
+        r.gap_initial.gap,
+        r.gap_final.gap,
+        t.elapsed().as_secs_f64()
+    );
+    println!("{:#?}", r.final_model);
+    for (i, e) in r.measured.entries.iter().enumerate() {
+        println!(
+            "{:16} {:50} m {:12.5} s0 {:12.5} s {:12.5} z0 {:8.2} z {:8.2}",
+            e.family,
+            e.label,
+            e.value,
+            r.initial_stats.entries[i].value,
+            r.final_stats.entries[i].value,
+            r.gap_initial.residuals[i],
+            r.gap_final.residuals[i]
+        );
+    }
+    for tr in &r.trials {
+        println!("     r{} {} drop {:.1} pen {:.1}", tr.round, tr.effect, tr.chi2_drop, tr.penalty);
+    }
+    for st in &r.steps {
+        println!("{} {} {:.3}->{:.3} {}", st.effect, st.params, st.gap_before, st.gap_after, st.evidence);
+    }
+}
+
+#[test]
+fn set003_spectrum_probe() {
+    if std::env::var("GAP_003S").is_err() {
+        return;
+    }
+    let desc = data_dir().join("emva1288-set003-crop/EMVA1288_Data.txt");
+    let opts = GapOptions { max_stack_frames: Some(16), step_stride: 2, ..GapOptions::default() };
+    let acq = gap::load_acquisition(&desc, &opts).unwrap();
+    let b = acq.blocks.iter().rev().find(|b| b.frames.len() > 2 && b.light == gap::Light::Dark).unwrap();
+    let img = gap::stats::average(&b.frames);
+    let t = std::time::Instant::now();
+    let (p, med) = gap::stats::peaks_2d(&img, acq.width, acq.height, 2, 8);
+    println!("{:.2}s median {med:.3e}", t.elapsed().as_secs_f64());
+    for q in p {
+        println!("{q:?}");
+    }
+}

@@ -35,12 +35,17 @@ pub const CANDIDATES: [&str; 10] = [
 /// while every true effect there dropped the chi-square by 60 or more.
 pub const PENALTY_FACTOR: f64 = 2.0;
 
+/// Peak-to-median ratio above which a periodogram peak counts as a wave (a white 64 x 48 image's
+/// largest bin reaches about 15 medians, 160 x 120 about 17).
+const PEAK_RATIO: f64 = 40.0;
+
 /// Number of fitted parameters of an effect (the BIC's k).
 #[must_use]
 pub fn param_count(effect: &str) -> usize {
     match effect {
         "hot_pixels" | "row_column_noise" => 2,
-        "periodic_pattern" => 3,
+        // Amplitude and two frequencies per wave (up to two waves).
+        "periodic_pattern" => 5,
         _ => 1,
     }
 }
@@ -179,12 +184,12 @@ pub fn propose(effect: &str, model: &GapModel, m: &Stats, s: &Stats) -> Option<G
             }
             let t = m.thresholds?.dark_dn;
             let c1 = dm.above_t - ds.above_t;
-            let c2 = dm.above_3t - ds.above_3t;
             if c1 < 1.0 {
                 return None;
             }
-            // Excess uniform in 0..X DN: a fraction (1 - T/X) of hot pixels clears T.
-            let x = if c2 >= 1.0 && c1 > c2 { ((c1 * 3.0 * t - c2 * t) / (c1 - c2)).max(3.0 * t) } else { 2.0 * t };
+            // Excess uniform in 0..X DN: the pixels above T have mean excess (T + X) / 2, and a
+            // fraction (1 - T/X) of hot pixels clears T.
+            let x = (2.0 * dm.above_t_mean_dn - t).max(1.05 * t);
             let n = (m.width * m.height) as f64;
             e.hot_pixels.enabled = true;
             e.hot_pixels.fraction = (c1 / (n * (1.0 - t / x))).min(1.0);
@@ -207,30 +212,37 @@ pub fn propose(effect: &str, model: &GapModel, m: &Stats, s: &Stats) -> Option<G
             e.row_column_noise.column_std_dn = col2.sqrt();
         }
         "periodic_pattern" => {
+            // The waves: measured peaks standing well above the ~15 medians a white image's
+            // largest bin reaches; amplitude^2 from the excess power over the current model's.
             let pp = e.periodic_pattern;
-            let cur2 = if pp.enabled { pp.amplitude_dn * pp.amplitude_dn } else { 0.0 };
-            // An axis counts when its peak stands well above the ~7x of a white profile.
-            let axis = |pm: Option<stats::Peak>, ps: Option<stats::Peak>, f: f64| -> Option<(f64, f64)> {
-                let pm = pm?;
-                if pp.enabled && f > 0.0 {
-                    return Some((f, pm.amp2_dn2 - ps.map_or(0.0, |p| p.amp2_dn2)));
-                }
-                (pm.ratio > 20.0).then_some((pm.freq_cycles_per_px, pm.amp2_dn2 - ps.map_or(0.0, |p| p.amp2_dn2)))
-            };
-            let ax = axis(m.peak_x, s.peak_x, pp.freq_x_cycles_per_px);
-            let ay = axis(m.peak_y, s.peak_y, pp.freq_y_cycles_per_px);
-            let d: Vec<f64> = [ax, ay].iter().flatten().map(|a| a.1).collect();
-            if d.is_empty() {
+            let waves: Vec<&stats::Peak> = m.peaks.iter().filter(|p| p.ratio > PEAK_RATIO).collect();
+            if waves.is_empty() {
                 return None;
             }
-            let a2 = cur2 + d.iter().sum::<f64>() / d.len() as f64;
+            let sim_amp2 = |p: &stats::Peak| -> f64 {
+                s.peaks
+                    .iter()
+                    .filter(|q| {
+                        (q.fx_cycles_per_px - p.fx_cycles_per_px).abs() < 0.02
+                            && (q.fy_cycles_per_px - p.fy_cycles_per_px).abs() < 0.02
+                    })
+                    .map(|q| q.amp2_dn2)
+                    .fold(0.0, f64::max)
+            };
+            let cur2 = if pp.enabled { pp.amplitude_dn * pp.amplitude_dn } else { 0.0 };
+            let a2 = cur2 + waves.iter().map(|p| p.amp2_dn2 - sim_amp2(p)).sum::<f64>() / waves.len() as f64;
             if a2 <= 0.0 {
                 return None;
             }
-            e.periodic_pattern.enabled = true;
-            e.periodic_pattern.amplitude_dn = a2.sqrt();
-            e.periodic_pattern.freq_x_cycles_per_px = ax.map_or(0.0, |a| a.0);
-            e.periodic_pattern.freq_y_cycles_per_px = ay.map_or(0.0, |a| a.0);
+            let p = &mut e.periodic_pattern;
+            p.enabled = true;
+            p.amplitude_dn = a2.sqrt();
+            p.freq_x_cycles_per_px = waves[0].fx_cycles_per_px;
+            p.wave_x_freq_y_cycles_per_px = waves[0].fy_cycles_per_px;
+            // The second wave goes in the (wy, fy) slot; absent: zero frequencies, no wave.
+            let (wy, fy) = waves.get(1).map_or((0.0, 0.0), |q| (q.fx_cycles_per_px, q.fy_cycles_per_px));
+            p.wave_y_freq_x_cycles_per_px = wy;
+            p.freq_y_cycles_per_px = fy;
         }
         "illumination_falloff" => {
             let ((cm, _), (cs, _)) = (m.falloff?, s.falloff?);
@@ -364,25 +376,48 @@ impl Evaluator<'_> {
         }
     }
 
-    /// Refits K (keeping the responsivity K QE) from the photon transfer below half scale.
+    /// Refits K (keeping the responsivity K QE) from the slope of temporal variance against
+    /// mean below 90 % of the plateau, measured over simulated; offsets (dark level, clipped darks, read
+    /// noise) do not enter a slope.
     fn refit_gain(&self, model: &mut GapModel, s: &Stats) {
-        let max = model.sensor.max_dn();
-        let (dm, ds) = (self.m.darks[0].var_dn2, s.darks[0].var_dn2);
-        let (mut num, mut den) = (0.0, 0.0);
-        for (pm, ps) in self.m.steps.iter().zip(&s.steps) {
-            if pm.mean_dn < 0.5 * max {
-                num += pm.var_dn2 - dm;
-                den += ps.var_dn2 - ds;
-            }
+        let plateau = self.m.steps.iter().map(|p| p.mean_dn).fold(f64::NEG_INFINITY, f64::max);
+        let floor = self.m.darks.first().map_or(0.0, |d| d.mean_dn);
+        let keep: Vec<bool> = self.m.steps.iter().map(|p| p.mean_dn <= floor + 0.9 * (plateau - floor)).collect();
+        // Weighted least-squares slope (weights 1 / var^2: the variance of a variance).
+        let wslope = |st: &Stats| -> f64 {
+            let pts: Vec<(f64, f64, f64)> = st
+                .steps
+                .iter()
+                .zip(&keep)
+                .filter(|(_, k)| **k)
+                .map(|(p, _)| (p.mean_dn, p.var_dn2, 1.0 / p.var_dn2.max(1e-9).powi(2)))
+                .collect();
+            let sw: f64 = pts.iter().map(|p| p.2).sum();
+            let mx = pts.iter().map(|p| p.2 * p.0).sum::<f64>() / sw;
+            let my = pts.iter().map(|p| p.2 * p.1).sum::<f64>() / sw;
+            let sxy: f64 = pts.iter().map(|p| p.2 * (p.0 - mx) * (p.1 - my)).sum();
+            let sxx: f64 = pts.iter().map(|p| p.2 * (p.0 - mx) * (p.0 - mx)).sum();
+            sxy / sxx
+        };
+        if keep.iter().filter(|k| **k).count() < 3 {
+            return;
         }
-        if num > 0.0 && den > 0.0 {
-            let r = num / den;
+        let r = wslope(&self.m) / wslope(s);
+        if r.is_finite() && r > 0.0 {
             let sensor = &mut model.sensor;
             let responsivity = sensor.system_gain_dn_per_e * sensor.quantum_efficiency;
             sensor.system_gain_dn_per_e *= r;
             sensor.quantum_efficiency = (responsivity / sensor.system_gain_dn_per_e).clamp(0.0, 1.0);
             sensor.read_noise_e /= r;
         }
+    }
+
+    /// Refits the nuisance parameters of the linear model: K, read noise, responsivity.
+    fn refit_base(&self, model: &mut GapModel, s: &Stats) {
+        self.refit_gain(model, s);
+        self.refit_read_noise(model);
+        let (s, _) = self.eval(model);
+        self.refit_responsivity(model, &s);
     }
 }
 
@@ -399,10 +434,7 @@ pub fn search(measured: &Acquisition, start: GapModel, refine: bool, options: &G
     let mut model = start;
     if refine {
         let (s, _) = ev.eval(&model);
-        ev.refit_gain(&mut model, &s);
-        ev.refit_read_noise(&mut model);
-        let (s, _) = ev.eval(&model);
-        ev.refit_responsivity(&mut model, &s);
+        ev.refit_base(&mut model, &s);
     }
     let initial = model.clone();
     let (mut s, mut g) = ev.eval(&model);
@@ -447,6 +479,12 @@ pub fn search(measured: &Acquisition, start: GapModel, refine: bool, options: &G
             if refine {
                 let mut p = model.clone();
                 ev.refit_responsivity(&mut p, &s);
+                let (ps, pg) = ev.eval(&p);
+                if pg.chi2_total < g.chi2_total {
+                    (model, s, g) = (p, ps, pg);
+                }
+                let mut p = model.clone();
+                ev.refit_base(&mut p, &s);
                 let (ps, pg) = ev.eval(&p);
                 if pg.chi2_total < g.chi2_total {
                     (model, s, g) = (p, ps, pg);

@@ -13,8 +13,8 @@
 //!   variances of the row and column profiles (row/column patterns, fall-off), the row-profile
 //!   variance of the dark pair's difference (temporal row noise), and the fall-off coefficient
 //!   of the bright stack. Variances of variances: `2 v^2 / dof`.
-//! * `spectrum`: peak-to-median ratio of the periodogram of the dark stack's column profile
-//!   (x) and row profile (y), on a 4x oversampled frequency grid: a periodic pattern.
+//! * `spectrum`: peak-to-median ratios of the two largest local maxima of the dark stack's 2-D
+//!   periodogram on a 2x oversampled grid: periodic patterns, separable or diagonal.
 //! * `tails`: pixels of the dark residual above `T` and `3 T` (hot pixels) and of the bright
 //!   residual below `-T` (dead / low pixels), `T` six robust standard deviations of the
 //!   measured residual; Poisson variances.
@@ -77,13 +77,17 @@ pub struct StackStats {
     pub above_t: f64,
     pub above_3t: f64,
     pub below_t: f64,
+    /// Mean residual of the pixels above `T`, DN (0 when none).
+    pub above_t_mean_dn: f64,
 }
 
 /// A periodogram peak.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Peak {
+    /// Power over the median power of the grid.
     pub ratio: f64,
-    pub freq_cycles_per_px: f64,
+    pub fx_cycles_per_px: f64,
+    pub fy_cycles_per_px: f64,
     /// Amplitude^2 of a sinusoid at the peak above the noise floor, DN^2.
     pub amp2_dn2: f64,
 }
@@ -99,8 +103,8 @@ pub struct Stats {
     pub bright_stack: Option<StackStats>,
     /// Relative fall-off `c` of the bright stack over the dark stack and its variance.
     pub falloff: Option<(f64, f64)>,
-    pub peak_x: Option<Peak>,
-    pub peak_y: Option<Peak>,
+    /// The two largest local maxima of the dark stack's 2-D periodogram.
+    pub peaks: Vec<Peak>,
     pub entries: Vec<Entry>,
     /// The thresholds the tails were counted with.
     pub thresholds: Option<Thresholds>,
@@ -159,41 +163,95 @@ fn stack_mean(frames: &[Vec<f32>]) -> Vec<f64> {
     out
 }
 
-/// Peak of the periodogram of a profile, on a 4x oversampled grid from 2 cycles per length to
-/// Nyquist. `P(f) = 4 |sum (x - mean) e^(-2 pi i f n)|^2 / L^2` reads A^2 for a sinusoid of
-/// amplitude A; for white noise its values are exponential with median `ln 2` times the floor.
-fn peak(profile: &[f64]) -> Option<Peak> {
-    let l = profile.len();
-    if l < 16 {
-        return None;
+/// Peaks of the 2-D periodogram of an image (mean removed): `P = 4 |DFT|^2 / N^2` (A^2 for a
+/// plane wave of amplitude A), on a grid oversampled `over` times, fx in 0..0.5 and fy in
+/// -0.5..0.5 (the half-plane), skipping |f| below 2 cycles per frame. Returns the `top` largest
+/// local maxima as (power, fx, fy), and the median power of the grid.
+#[must_use]
+pub fn peaks_2d(img: &[f64], w: usize, h: usize, over: usize, top: usize) -> (Vec<(f64, f64, f64)>, f64) {
+    let m = mean(img);
+    let nfx = over * w / 2 + 1;
+    let nfy = over * h;
+    let fx: Vec<f64> = (0..nfx).map(|k| k as f64 / (over * w) as f64).collect();
+    let fy: Vec<f64> = (0..nfy).map(|k| k as f64 / (over * h) as f64 - 0.5).collect();
+    // Along x for every row: X[r][k] = sum_c (img - m) e^(-2 pi i fx_k c), with tables of the
+    // twiddle factors so the transform is multiply-adds only.
+    let tw = std::f64::consts::TAU;
+    let tx: Vec<(f64, f64)> =
+        fx.iter().flat_map(|f| (0..w).map(move |c| ((tw * f * c as f64).cos(), -(tw * f * c as f64).sin()))).collect();
+    let ty: Vec<(f64, f64)> =
+        fy.iter().flat_map(|g| (0..h).map(move |r| ((tw * g * r as f64).cos(), -(tw * g * r as f64).sin()))).collect();
+    let mut xr = vec![(0.0f64, 0.0f64); nfx * h];
+    for r in 0..h {
+        let row: Vec<f64> = img[r * w..(r + 1) * w].iter().map(|v| v - m).collect();
+        for k in 0..nfx {
+            let t = &tx[k * w..(k + 1) * w];
+            let (mut re, mut im) = (0.0, 0.0);
+            for (v, (c, s)) in row.iter().zip(t) {
+                re += v * c;
+                im += v * s;
+            }
+            xr[k * h + r] = (re, im);
+        }
     }
-    let m = mean(profile);
-    let x: Vec<f64> = profile.iter().map(|v| v - m).collect();
-    let lf = l as f64;
-    let mut best = (0.0f64, 0.0f64);
-    let mut powers = Vec::new();
-    let mut k = 8usize; // 2 cycles per length, 4x oversampled
-    while (k as f64) <= 2.0 * lf {
-        let f = k as f64 / (4.0 * lf);
-        let (mut re, mut im) = (0.0, 0.0);
-        for (n, v) in x.iter().enumerate() {
-            let ph = std::f64::consts::TAU * f * n as f64;
-            re += v * ph.cos();
-            im -= v * ph.sin();
+    let n2 = ((w * h) as f64).powi(2);
+    let mut p = vec![0f64; nfx * nfy];
+    for k in 0..nfx {
+        let col = &xr[k * h..(k + 1) * h];
+        for j in 0..nfy {
+            let t = &ty[j * h..(j + 1) * h];
+            let (mut re, mut im) = (0.0, 0.0);
+            for ((a, b), (c, s)) in col.iter().zip(t) {
+                re += a * c - b * s;
+                im += a * s + b * c;
+            }
+            p[k * nfy + j] = 4.0 * (re * re + im * im) / n2;
         }
-        let p = 4.0 * (re * re + im * im) / (lf * lf);
-        if k % 4 == 0 {
-            powers.push(p);
-        }
-        if p > best.0 {
-            best = (p, f);
-        }
-        k += 1;
     }
-    powers.sort_by(f64::total_cmp);
-    let median = powers[powers.len() / 2].max(1e-12);
-    let floor = median / std::f64::consts::LN_2;
-    Some(Peak { ratio: best.0 / median, freq_cycles_per_px: best.1, amp2_dn2: (best.0 - floor).max(0.0) })
+    let min_f = 2.0 / w.max(h) as f64;
+    let mut on_grid: Vec<f64> = Vec::new();
+    let mut found = Vec::new();
+    for k in 0..nfx {
+        for j in 0..nfy {
+            // Half-plane: fx > 0, or fx = 0 and fy > 0 (the rest mirrors it).
+            if (fx[k] * fx[k] + fy[j] * fy[j]).sqrt() < min_f || (k == 0 && fy[j] <= 0.0) {
+                continue;
+            }
+            let v = p[k * nfy + j];
+            if k % over == 0 && j % over == 0 {
+                on_grid.push(v);
+            }
+            let mut is_max = true;
+            for dk in -1i64..=1 {
+                for dj in -1i64..=1 {
+                    let (kk, jj) = (k as i64 + dk, j as i64 + dj);
+                    if (dk, dj) != (0, 0)
+                        && kk >= 0
+                        && jj >= 0
+                        && (kk as usize) < nfx
+                        && (jj as usize) < nfy
+                        && p[kk as usize * nfy + jj as usize] > v
+                    {
+                        is_max = false;
+                    }
+                }
+            }
+            if is_max {
+                found.push((v, fx[k], fy[j]));
+            }
+        }
+    }
+    found.sort_by(|a, b| b.0.total_cmp(&a.0));
+    found.truncate(top);
+    on_grid.sort_by(f64::total_cmp);
+    let median = on_grid.get(on_grid.len() / 2).copied().unwrap_or(0.0);
+    (found, median)
+}
+
+/// Mean image of a stack (public for probes and tests).
+#[must_use]
+pub fn average(frames: &[Vec<f32>]) -> Vec<f64> {
+    stack_mean(frames)
 }
 
 fn pair_stats(a: &[f32], b: &[f32], w: usize, h: usize) -> (f64, f64, f64, f64) {
@@ -235,6 +293,32 @@ pub fn thresholds(acq: &Acquisition) -> Thresholds {
     t
 }
 
+/// Row and column means over the pixels not masked.
+fn masked_profiles(img: &[f64], w: usize, h: usize, mask: &[bool]) -> (Vec<f64>, Vec<f64>, f64) {
+    let (mut rs, mut rn) = (vec![0f64; h], vec![0usize; h]);
+    let (mut cs, mut cn) = (vec![0f64; w], vec![0usize; w]);
+    let (mut g, mut gn) = (0.0, 0usize);
+    for (i, &v) in img.iter().enumerate() {
+        if mask[i] {
+            continue;
+        }
+        let (r, c) = (i / w, i % w);
+        rs[r] += v;
+        rn[r] += 1;
+        cs[c] += v;
+        cn[c] += 1;
+        g += v;
+        gn += 1;
+    }
+    let g = g / gn.max(1) as f64;
+    let avg = |s: Vec<f64>, n: Vec<usize>| -> Vec<f64> {
+        s.into_iter().zip(n).map(|(s, n)| if n > 0 { s / n as f64 } else { g }).collect()
+    };
+    (avg(rs, rn), avg(cs, cn), g)
+}
+
+/// Stack statistics. Pixels beyond the threshold `t` (hot, dead) are found on a first residual
+/// and left out of the profiles, so one hot pixel does not shift its whole row and column.
 fn stack_stats(
     frames: &[Vec<f32>],
     exposure_s: f64,
@@ -244,7 +328,10 @@ fn stack_stats(
     h: usize,
 ) -> (StackStats, Vec<f64>) {
     let img = stack_mean(frames);
-    let r = residual(&img, w, h);
+    let first = residual(&img, w, h);
+    let mask: Vec<bool> = first.iter().map(|v| v.abs() > t).collect();
+    let (rm, cm, g) = masked_profiles(&img, w, h, &mask);
+    let r: Vec<f64> = img.iter().enumerate().map(|(i, v)| v - rm[i / w] - cm[i % w] + g).collect();
     let kept: Vec<f64> = r.iter().copied().filter(|v| v.abs() <= t).collect();
     let count = |f: &dyn Fn(f64) -> bool| r.iter().filter(|&&v| f(v)).count() as f64;
     let s = StackStats {
@@ -253,11 +340,15 @@ fn stack_stats(
         photons,
         mean_dn: mean(&img),
         resid_var_dn2: if kept.len() > 1 { var(&kept) } else { 0.0 },
-        row_var_dn2: var(&row_means(&img, w, h)),
-        col_var_dn2: var(&col_means(&img, w, h)),
+        row_var_dn2: var(&rm),
+        col_var_dn2: var(&cm),
         above_t: count(&|v| v > t),
         above_3t: count(&|v| v > 3.0 * t),
         below_t: count(&|v| v < -t),
+        above_t_mean_dn: {
+            let hot: Vec<f64> = r.iter().copied().filter(|&v| v > t).collect();
+            if hot.is_empty() { 0.0 } else { mean(&hot) }
+        },
     };
     (s, img)
 }
@@ -385,36 +476,35 @@ pub fn compute(acq: &Acquisition, t: &Thresholds) -> Stats {
     if let Some((c, vc)) = falloff {
         entries.push(Entry { family: "spatial", label: "bright stack fall-off".into(), x: 0.0, value: c, var: vc });
     }
-    let (peak_x, peak_y) = match &dark_img {
-        Some(d) => (peak(&col_means(d, w, h)), peak(&row_means(d, w, h))),
-        None => (None, None),
-    };
-    for (axis, p) in [("x", peak_x), ("y", peak_y)] {
-        if let Some(p) = p {
-            entries.push(Entry {
-                family: "spectrum",
-                label: format!("dark stack periodogram peak/median ({axis})"),
-                x: p.freq_cycles_per_px,
-                value: p.ratio,
-                // Noise only: the maximum of ~L/2 exponential bins spreads by ~1.3 floors
-                // (1.85 medians); a sinusoid adds its cross term with the noise.
-                var: 1.85f64.powi(2) + 2.0 * p.ratio,
-            });
+    let peaks: Vec<Peak> = match &dark_img {
+        Some(d) => {
+            let (found, median) = peaks_2d(d, w, h, 2, 2);
+            let median = median.max(1e-12);
+            let floor = median / std::f64::consts::LN_2;
+            found
+                .into_iter()
+                .map(|(p, fx, fy)| Peak {
+                    ratio: p / median,
+                    fx_cycles_per_px: fx,
+                    fy_cycles_per_px: fy,
+                    amp2_dn2: (p - floor).max(0.0),
+                })
+                .collect()
         }
+        None => Vec::new(),
+    };
+    for (i, p) in peaks.iter().enumerate() {
+        entries.push(Entry {
+            family: "spectrum",
+            label: format!("dark stack 2-D periodogram peak {} / median", i + 1),
+            x: p.fx_cycles_per_px,
+            value: p.ratio,
+            // Noise only: the maximum of many exponential bins spreads by ~1.3 floors (1.85
+            // medians); a sinusoid adds its cross term with the noise.
+            var: 1.85f64.powi(2) + 2.0 * p.ratio,
+        });
     }
-    Stats {
-        width: w,
-        height: h,
-        steps,
-        darks,
-        dark_stack,
-        bright_stack,
-        falloff,
-        peak_x,
-        peak_y,
-        entries,
-        thresholds: Some(*t),
-    }
+    Stats { width: w, height: h, steps, darks, dark_stack, bright_stack, falloff, peaks, entries, thresholds: Some(*t) }
 }
 
 /// The families in report order.

@@ -105,6 +105,7 @@ pub fn random_case(seed: u64, n_effects: usize) -> HiddenCase {
                     amplitude_dn: r.random_range(0.8..2.0) * read_dn,
                     freq_x_cycles_per_px: r.random_range(0.06..0.4),
                     freq_y_cycles_per_px: r.random_range(0.06..0.4),
+                    ..noise::PeriodicPattern::default()
                 };
             }
             "illumination_falloff" => {
