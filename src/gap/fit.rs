@@ -113,7 +113,7 @@ pub fn propose(effect: &str, model: &GapModel, m: &Stats, s: &Stats) -> Option<G
             for _ in 0..20 {
                 y = target / (1.0 + a * (y / max).powi(3));
             }
-            if !(y > 0.0) {
+            if y.is_nan() || y <= 0.0 {
                 return None;
             }
             e.saturation.enabled = true;
@@ -257,11 +257,14 @@ pub fn propose(effect: &str, model: &GapModel, m: &Stats, s: &Stats) -> Option<G
     Some(next)
 }
 
+/// (residual, simulated signal, weight) of one step.
+type MeanRow = (f64, f64, f64);
+
 /// Per unsaturated step (below 90 % of the measured plateau): residual of the signal above the
 /// dark pair nearest in exposure (measured minus simulated), simulated signal, weight 1 /
 /// variance. Offsets (black level, dark signal) cancel, so a responsivity fit leaves them to
 /// their effects. Also the plateau.
-fn mean_rows(m: &Stats, s: &Stats, max: f64) -> Option<(f64, Vec<(f64, f64, f64)>)> {
+fn mean_rows(m: &Stats, s: &Stats, max: f64) -> Option<(f64, Vec<MeanRow>)> {
     let plateau = m.steps.iter().map(|p| p.mean_dn).fold(f64::NEG_INFINITY, f64::max).min(max);
     let dark = |st: &Stats, t: f64| -> Option<f64> {
         st.darks.iter().min_by(|a, b| (a.exposure_s - t).abs().total_cmp(&(b.exposure_s - t).abs())).map(|d| d.mean_dn)
