@@ -17,8 +17,17 @@
 //!    about 0 ([`stats::gap`]).
 //! 5. [`fit`]: every effect the data can show gets its parameters in closed form from the
 //!    statistics; the candidate whose re-simulated chi-square drops most is added when the
-//!    drop beats the Bayesian information criterion penalty `k ln n` (k parameters, n
-//!    statistics); repeat until no candidate earns its place.
+//!    drop beats twice the Bayesian information criterion penalty, `2 k ln n` (k parameters, n
+//!    statistics; the factor 2 because the sampling variances are estimated, see
+//!    [`fit::PENALTY_FACTOR`]); after each addition the linear model's nuisance parameters
+//!    (K, read noise, responsivity) and the added effects are refitted; repeat until no
+//!    candidate earns its place.
+//!
+//! Measured on 40 hidden-effect data sets (tests/gap.rs, [`testdata`]): 36 named exactly the
+//! hidden effects with the gap 80 % smaller or better, and none of the 14 clean sets named
+//! anything. On EMVA 1288 data set 003 (centre crop) it names black level, nonlinearity, DSNU,
+//! the diagonal periodic DSNU waves, PRNU and the slight fall-off; not the ~6 hot pixels of the
+//! crop, whose excess (0..15 DN) does not clear the 6-sigma tail threshold.
 //!
 //! `read_noise_split` needs two gains and an EMVA descriptor holds one, so it is never a
 //! candidate here. `illumination_falloff` is an optics effect ([`OPTICS_EFFECTS`]); the workflow

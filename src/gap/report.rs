@@ -102,7 +102,11 @@ fn markdown(r: &GapResult, source: &str) -> String {
         r.gap_final.gap,
         if r.steps.is_empty() { "none".to_string() } else { r.named().join(", ") }
     );
-    let _ = writeln!(s, "## Steps\n\n| effect | params | gap before | gap after | evidence |\n|---|---|---|---|---|");
+    let _ = writeln!(
+        s,
+        "## Steps\n\nParameters as fitted when the effect was added; later rounds refit them (final values \
+         in model.toml).\n\n| effect | params | gap before | gap after | evidence |\n|---|---|---|---|---|"
+    );
     for st in &r.steps {
         let _ = writeln!(
             s,
