@@ -254,7 +254,9 @@ pub fn average(frames: &[Vec<f32>]) -> Vec<f64> {
     stack_mean(frames)
 }
 
-fn pair_stats(a: &[f32], b: &[f32], w: usize, h: usize) -> (f64, f64, f64, f64) {
+/// Of a temporal pair: mean, temporal variance, variance of the mean, row-profile variance of
+/// the difference, and the difference's fourth central moment.
+fn pair_stats(a: &[f32], b: &[f32], w: usize, h: usize) -> (f64, f64, f64, f64, f64) {
     let n = a.len() as f64;
     let avg: Vec<f64> = a.iter().zip(b).map(|(&x, &y)| 0.5 * (f64::from(x) + f64::from(y))).collect();
     let diff: Vec<f64> =
@@ -267,13 +269,17 @@ fn pair_stats(a: &[f32], b: &[f32], w: usize, h: usize) -> (f64, f64, f64, f64) 
     let mean_var = (var(&avg) / n)
         .max(diff_var(&row_means(&avg, w, h)) / h as f64)
         .max(diff_var(&col_means(&avg, w, h)) / w as f64);
-    (m, v, mean_var, var(&row_means(&diff, w, h)))
+    let md = mean(&diff);
+    let m4 = diff.iter().map(|d| (d - md).powi(4)).sum::<f64>() / n;
+    (m, v, mean_var, var(&row_means(&diff, w, h)), m4)
 }
 
 /// Sampling variance of a temporal variance `v` estimated from `n` pixels in `h` rows whose
-/// row-profile variance is `rv`: white part `2 v^2 / n`, row-correlated part `2 rv^2 / h`.
-fn var_of_var(v: f64, rv: f64, n: f64, h: f64) -> f64 {
-    2.0 * v * v / n + 2.0 * rv * rv / h
+/// row-profile variance is `rv`: `(m4 - v^2) / n` from the fourth moment (at least the Gaussian
+/// `2 v^2 / n`; clipped or hot-pixel data are heavy-tailed), plus the row-correlated part
+/// `2 rv^2 / h`.
+fn var_of_var(v: f64, m4: f64, rv: f64, n: f64, h: f64) -> f64 {
+    (m4 - v * v).max(2.0 * v * v) / n + 2.0 * rv * rv / h
 }
 
 /// Thresholds from the measured acquisition.
@@ -367,11 +373,11 @@ pub fn compute(acq: &Acquisition, t: &Thresholds) -> Stats {
     let mut mean_vars = Vec::new();
     for b in &acq.blocks {
         if b.frames.len() == 2 {
-            let (m, v, mv, rv) = pair_stats(&b.frames[0], &b.frames[1], w, h);
+            let (m, v, mv, rv, m4) = pair_stats(&b.frames[0], &b.frames[1], w, h);
             match b.light {
                 Light::Bright(p) => {
                     steps.push(StepStats { photons: p, exposure_s: b.exposure_s, mean_dn: m, var_dn2: v });
-                    mean_vars.push((mv, rv));
+                    mean_vars.push((mv, rv, m4));
                 }
                 Light::Dark => {
                     darks.push(DarkStats { exposure_s: b.exposure_s, mean_dn: m, var_dn2: v, diff_row_var_dn2: rv });
@@ -387,7 +393,7 @@ pub fn compute(acq: &Acquisition, t: &Thresholds) -> Stats {
                         label: format!("dark variance {:.4} s", b.exposure_s),
                         x: b.exposure_s,
                         value: v,
-                        var: var_of_var(v, rv, n, h as f64),
+                        var: var_of_var(v, m4, rv, n, h as f64),
                     });
                 }
             }
@@ -407,7 +413,7 @@ pub fn compute(acq: &Acquisition, t: &Thresholds) -> Stats {
             }
         }
     }
-    for (i, (s, (mv, rv))) in steps.iter().zip(&mean_vars).enumerate() {
+    for (i, (s, (mv, rv, m4))) in steps.iter().zip(&mean_vars).enumerate() {
         entries.push(Entry {
             family: "linearity",
             label: format!("step {i} mean"),
@@ -420,7 +426,7 @@ pub fn compute(acq: &Acquisition, t: &Thresholds) -> Stats {
             label: format!("step {i} variance"),
             x: s.photons,
             value: s.var_dn2,
-            var: var_of_var(s.var_dn2, *rv, n, h as f64),
+            var: var_of_var(s.var_dn2, *m4, *rv, n, h as f64),
         });
     }
     if let Some(d) = darks.first() {
