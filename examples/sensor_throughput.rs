@@ -24,6 +24,7 @@ fn main() {
             amplitude_dn: 1.0,
             freq_x_cycles_per_px: 0.04,
             freq_y_cycles_per_px: 0.2,
+            ..noise::PeriodicPattern::default()
         },
         ..model.effects
     };

@@ -41,6 +41,8 @@
 //! * [`orb`]: OpenCV-compatible ORB features, cross-checked matching, RANSAC inliers.
 //! * [`calibration`]: EMVA 1288 descriptors and photon-transfer CSVs to measured sensor
 //!   parameters (`scene-gen calibrate`).
+//! * [`gap`]: the sim-vs-measured gap workflow (`scene-gen gap`): names the effects the sensor
+//!   model misses and adds them.
 //!
 //! ```no_run
 //! use scene_gen::{config::GeneratorConfig, generate::generate, library::Library};
@@ -58,6 +60,7 @@ pub mod decor;
 pub mod detection;
 pub mod export;
 pub mod floorplan;
+pub mod gap;
 pub mod generate;
 pub mod library;
 pub mod lights;

@@ -335,6 +335,7 @@ fn each_effect_changes_its_statistic() {
         amplitude_dn: 4.0,
         freq_x_cycles_per_px: 0.25,
         freq_y_cycles_per_px: 0.0,
+        ..noise::PeriodicPattern::default()
     };
     let frame = m.simulate(&vec![0.0; W * H], W, H, 0.0, 0.0, 8);
     let col = |c: usize| (0..H).map(|r| f64::from(frame[r * W + c])).sum::<f64>() / H as f64;

@@ -1,6 +1,7 @@
 //! Command-line definitions and dispatch.
 
 mod calibrate;
+mod gap;
 mod generate;
 mod orb;
 mod render;
@@ -47,6 +48,8 @@ pub enum Command {
     Sensors(sensors::SensorsArgs),
     /// EMVA 1288 calibration of a measured camera (descriptor + images, or photon-transfer CSV).
     Calibrate(calibrate::CalibrateArgs),
+    /// Sim-vs-measured gap: names the effects the sensor model misses, adds them, reports.
+    Gap(gap::GapArgs),
     /// ORB keypoints and descriptors of an image, as OpenCV's ORB computes them.
     Orb(orb::OrbArgs),
     /// Cross-checked ORB matches between two images and their RANSAC fundamental-matrix inliers.
@@ -64,6 +67,7 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         None => generate::run(&cli.generate),
         Some(Command::Sensors(args)) => sensors::run(&args),
         Some(Command::Calibrate(args)) => calibrate::run(&args),
+        Some(Command::Gap(args)) => gap::run(&args),
         Some(Command::Orb(args)) => orb::run_orb(&args),
         Some(Command::Match(args)) => orb::run_match(&args),
         Some(Command::Render(args)) => render::run(&args),

@@ -155,8 +155,10 @@ pub struct RowColumnNoise {
     pub column_std_dn: f64,
 }
 
-/// Fixed sinusoidal offsets, DN: `A sin(2 pi fx x) + A sin(2 pi fy y)` (the form of EMVA 1288
-/// data set 003's DSNU patterns).
+/// Fixed sinusoidal offsets, DN: `A sin(2 pi (fx x + wx y)) + A sin(2 pi (wy x + fy y))`, two
+/// plane waves of one amplitude. With `wx = wy = 0` (the default) a column and a row sinusoid;
+/// EMVA 1288 data set 003's DSNU patterns are diagonal waves (its 2-D spectrum peaks at
+/// (0.04, 0.04) and (0.2, 0.2) cycles/px), which the cross terms describe.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct PeriodicPattern {
@@ -164,6 +166,10 @@ pub struct PeriodicPattern {
     pub amplitude_dn: f64,
     pub freq_x_cycles_per_px: f64,
     pub freq_y_cycles_per_px: f64,
+    /// y frequency of the first (x) wave, `wx`.
+    pub wave_x_freq_y_cycles_per_px: f64,
+    /// x frequency of the second (y) wave, `wy`.
+    pub wave_y_freq_x_cycles_per_px: f64,
 }
 
 macro_rules! off_by_default {
@@ -185,7 +191,13 @@ off_by_default!(
     Prnu { std_fraction: 0.0 },
     HotPixels { fraction: 0.0, max_excess_e_per_s: 0.0 },
     RowColumnNoise { row_std_dn: 0.0, column_std_dn: 0.0 },
-    PeriodicPattern { amplitude_dn: 0.0, freq_x_cycles_per_px: 0.0, freq_y_cycles_per_px: 0.0 },
+    PeriodicPattern {
+        amplitude_dn: 0.0,
+        freq_x_cycles_per_px: 0.0,
+        freq_y_cycles_per_px: 0.0,
+        wave_x_freq_y_cycles_per_px: 0.0,
+        wave_y_freq_x_cycles_per_px: 0.0
+    },
 );
 
 /// Every effect, by its DESIGN.md name.
@@ -545,7 +557,14 @@ impl SensorModel {
                 y += row_offset + black;
                 y += pattern.column_dn.get(c).map_or(0.0, |&v| f64::from(v));
                 if pp.enabled {
-                    y += periodic_y + pp.amplitude_dn * (two_pi * pp.freq_x_cycles_per_px * c as f64).sin();
+                    let (cf, rf) = (c as f64, r as f64);
+                    if pp.wave_x_freq_y_cycles_per_px == 0.0 && pp.wave_y_freq_x_cycles_per_px == 0.0 {
+                        y += periodic_y + pp.amplitude_dn * (two_pi * pp.freq_x_cycles_per_px * cf).sin();
+                    } else {
+                        let wx = pp.freq_x_cycles_per_px * cf + pp.wave_x_freq_y_cycles_per_px * rf;
+                        let wy = pp.wave_y_freq_x_cycles_per_px * cf + pp.freq_y_cycles_per_px * rf;
+                        y += pp.amplitude_dn * ((two_pi * wx).sin() + (two_pi * wy).sin());
+                    }
                 }
                 if e.quantization.enabled {
                     y = y.round();

@@ -1,0 +1,312 @@
+//! The sim-vs-measured gap workflow (`scene-gen gap`): compare an EMVA 1288 measurement with the
+//! same acquisition simulated by the project's noise model, name the effects the model is
+//! missing, add them one at a time, and show the gap shrink.
+//!
+//! 1. Start model: the EMVA 1288 linear model fitted to the data (K, read noise, QE from
+//!    [`crate::calibration`]; K and the read noise then refined by simulation so the photon
+//!    transfer and the dark variance match, which also undoes the bias of dark frames clipped
+//!    at 0 DN), every effect of DESIGN.md off except quantization; or a given model.
+//! 2. The acquisition is simulated block by block with [`SensorModel::simulate_with`] (the
+//!    renderer's code path): same exposures, photons per pixel, frame counts and image size;
+//!    fixed seeds, the same for every candidate model (common random numbers, so candidates
+//!    differ by their parameters, not by their noise draws).
+//! 3. [`stats`] computes the same statistics on both stacks, grouped in families.
+//! 4. The gap: per family the chi-square per degree of freedom of the residuals, each divided
+//!    by its sampling uncertainty (measured and simulated combined); the gap is the mean of
+//!    the families' values minus one, so a model that matches within sampling noise scores
+//!    about 0 ([`stats::gap`]).
+//! 5. [`fit`]: every effect the data can show gets its parameters in closed form from the
+//!    statistics; the candidate whose re-simulated chi-square drops most is added when the
+//!    drop beats twice the Bayesian information criterion penalty, `2 k ln n` (k parameters, n
+//!    statistics; the factor 2 because the sampling variances are estimated, see
+//!    [`fit::PENALTY_FACTOR`]); after each addition the linear model's nuisance parameters
+//!    (K, read noise, responsivity) and the added effects are refitted; repeat until no
+//!    candidate earns its place.
+//!
+//! Measured on 40 hidden-effect data sets (tests/gap.rs, [`testdata`]): 37 named exactly the
+//! hidden effects with the gap 80 % smaller or better, and none of the 14 clean sets named
+//! anything; the 3 misses are periodic patterns over dark frames clipped at 0 DN. On EMVA 1288 data set 003 (centre crop) it names black level, nonlinearity, DSNU,
+//! the diagonal periodic DSNU waves, PRNU and the slight fall-off; not the ~6 hot pixels of the
+//! crop, whose excess (0..15 DN) does not clear the 6-sigma tail threshold.
+//!
+//! `read_noise_split` needs two gains and an EMVA descriptor holds one, so it is never a
+//! candidate here. `illumination_falloff` is an optics effect ([`OPTICS_EFFECTS`]); the workflow
+//! models it on the photon image and writes it to `optics.toml` beside `model.toml`.
+//!
+//! [`OPTICS_EFFECTS`]: crate::sensor::noise::OPTICS_EFFECTS
+
+pub mod fit;
+pub mod report;
+pub mod stats;
+pub mod testdata;
+
+use std::path::{Path, PathBuf};
+
+use rand::Rng as _;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use crate::calibration::emva::{self, BlockKind, EmvaError};
+use crate::calibration::{self, CalibrationError};
+use crate::rng;
+use crate::sensor::SensorModel;
+use crate::sensor::noise::ModelError;
+
+/// The workflow failed.
+#[derive(Debug, thiserror::Error)]
+pub enum GapError {
+    #[error(transparent)]
+    Emva(#[from] EmvaError),
+    #[error(transparent)]
+    Calibration(#[from] CalibrationError),
+    #[error(transparent)]
+    Model(#[from] ModelError),
+    #[error("{}: {message}", path.display())]
+    Unusable { path: PathBuf, message: String },
+}
+
+/// Options of the workflow.
+#[derive(Debug, Clone)]
+pub struct GapOptions {
+    /// Seed of the simulated acquisitions (fixed patterns and temporal noise).
+    pub seed: u64,
+    /// Frames used of each spatial stack (the first ones); None: all. Averages of 32 frames
+    /// already put the residual temporal variance at 1/32 of a frame's.
+    pub max_stack_frames: Option<usize>,
+    /// Use every n-th photon-transfer step (1: all).
+    pub step_stride: usize,
+}
+
+impl Default for GapOptions {
+    fn default() -> Self {
+        GapOptions { seed: 1288, max_stack_frames: Some(32), step_stride: 1 }
+    }
+}
+
+/// Bright (photons per pixel, mean over the frame) or dark.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Light {
+    Bright(f64),
+    Dark,
+}
+
+/// One block of an acquisition: a temporal pair or a spatial stack.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Block {
+    pub light: Light,
+    pub exposure_s: f64,
+    /// Frames, row-major `width x height` DN values.
+    pub frames: Vec<Vec<f32>>,
+}
+
+/// A measured or simulated EMVA 1288 acquisition.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Acquisition {
+    pub width: usize,
+    pub height: usize,
+    pub bits: u32,
+    pub blocks: Vec<Block>,
+}
+
+/// Loads the images of an EMVA 1288 descriptor (spatial stacks cut to `max_stack_frames`,
+/// photon-transfer pairs thinned to every `step_stride`-th bright pair).
+pub fn load_acquisition(path: &Path, options: &GapOptions) -> Result<Acquisition, GapError> {
+    let d = emva::read_descriptor(path)?;
+    let (w, h, bits) = (d.width, d.height, d.bits);
+    let mut blocks = Vec::new();
+    let mut bright_pair = 0usize;
+    for b in &d.blocks {
+        let pair = b.images.len() == 2;
+        let light = match b.kind {
+            BlockKind::Bright { photons } => Light::Bright(photons),
+            BlockKind::Dark => Light::Dark,
+        };
+        if pair && matches!(light, Light::Bright(_)) {
+            bright_pair += 1;
+            if (bright_pair - 1) % options.step_stride.max(1) != 0 {
+                continue;
+            }
+        }
+        let take = if pair { 2 } else { options.max_stack_frames.unwrap_or(usize::MAX).max(2) };
+        let frames =
+            b.images.iter().take(take).map(|p| emva::load_image(p, w, h, bits)).collect::<Result<Vec<_>, _>>()?;
+        blocks.push(Block { light, exposure_s: b.exposure_s(), frames });
+    }
+    Ok(Acquisition { width: w as usize, height: h as usize, bits, blocks })
+}
+
+/// Illumination fall-off of the optics, applied to the photon image: photons at normalised
+/// radius `rho` (1 at the corners) are `p (1 - c (rho^2 - mean rho^2))`, so the frame mean stays
+/// the descriptor's photon count.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct IlluminationFalloff {
+    pub enabled: bool,
+    /// Relative loss from the centre to the corners, `c`.
+    pub corner_loss_fraction: f64,
+}
+
+/// The optics part of a model (what `optics.toml` holds).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Optics {
+    pub illumination_falloff: IlluminationFalloff,
+}
+
+/// A sensor model and the optics effects it is simulated with.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GapModel {
+    pub sensor: SensorModel,
+    pub optics: Optics,
+}
+
+impl GapModel {
+    /// Names of the effects switched on (quantization left out: it is always on).
+    #[must_use]
+    pub fn named(&self) -> Vec<&'static str> {
+        let mut v: Vec<&'static str> =
+            self.sensor.effects.enabled_names().into_iter().filter(|n| *n != "quantization").collect();
+        if self.optics.illumination_falloff.enabled {
+            v.push("illumination_falloff");
+        }
+        v
+    }
+}
+
+/// Normalised squared radius per pixel minus its mean (see [`IlluminationFalloff`]).
+#[must_use]
+pub fn radius2_map(width: usize, height: usize) -> Vec<f64> {
+    let (cx, cy) = ((width as f64 - 1.0) / 2.0, (height as f64 - 1.0) / 2.0);
+    let r2max = cx * cx + cy * cy;
+    let mut v: Vec<f64> = (0..width * height)
+        .map(|i| {
+            let (x, y) = ((i % width) as f64 - cx, (i / width) as f64 - cy);
+            if r2max > 0.0 { (x * x + y * y) / r2max } else { 0.0 }
+        })
+        .collect();
+    let mean = v.iter().sum::<f64>() / v.len().max(1) as f64;
+    v.iter_mut().for_each(|r| *r -= mean);
+    v
+}
+
+/// Seed of frame `frame` of block `block`.
+fn frame_seed(seed: u64, block: usize, frame: usize) -> u64 {
+    rng::substream(seed, "gap/frame", ((block as u64) << 24) | frame as u64).random::<u64>()
+}
+
+/// Simulates the blocks `which` of `layout` (all when None) with `model`; other blocks are left
+/// empty. Block `i`, frame `j` always draws from the same seed, whatever else is simulated.
+#[must_use]
+pub fn simulate_acquisition(model: &GapModel, layout: &Acquisition, seed: u64, which: Option<&[usize]>) -> Acquisition {
+    let (w, h) = (layout.width, layout.height);
+    let mut sensor = model.sensor.clone();
+    sensor.adc_bits = layout.bits;
+    let pattern = sensor.fixed_pattern(w, h);
+    let falloff = model.optics.illumination_falloff;
+    let r2 = falloff.enabled.then(|| radius2_map(w, h));
+    let photon_map = |p: f64| -> Vec<f32> {
+        match &r2 {
+            Some(r2) => r2.iter().map(|r| (p * (1.0 - falloff.corner_loss_fraction * r)).max(0.0) as f32).collect(),
+            None => vec![p as f32; w * h],
+        }
+    };
+    let blocks = layout
+        .blocks
+        .iter()
+        .enumerate()
+        .map(|(bi, b)| {
+            if which.is_some_and(|s| !s.contains(&bi)) {
+                return Block { light: b.light, exposure_s: b.exposure_s, frames: Vec::new() };
+            }
+            let photons = photon_map(match b.light {
+                Light::Bright(p) => p,
+                Light::Dark => 0.0,
+            });
+            let frames = (0..b.frames.len())
+                .into_par_iter()
+                .map(|fi| {
+                    let dn = sensor.simulate_with(&pattern, &photons, b.exposure_s, 0.0, frame_seed(seed, bi, fi));
+                    dn.into_iter().map(f32::from).collect()
+                })
+                .collect();
+            Block { light: b.light, exposure_s: b.exposure_s, frames }
+        })
+        .collect();
+    Acquisition { width: w, height: h, bits: layout.bits, blocks }
+}
+
+/// The start model: the EMVA 1288 linear model of the calibration (K, QE, read noise), every
+/// effect off but quantization.
+pub fn start_model(path: &Path, bits: u32, seed: u64) -> Result<GapModel, GapError> {
+    let cal = calibration::calibrate_emva(path)?;
+    let mut sensor = cal.to_sensor_model("measured", seed);
+    sensor.adc_bits = bits;
+    let q = sensor.effects.quantization;
+    sensor.effects = crate::sensor::noise::Effects { quantization: q, ..Default::default() };
+    sensor.effects.quantization.enabled = true;
+    sensor.validate()?;
+    Ok(GapModel { sensor, optics: Optics::default() })
+}
+
+/// One accepted step of the search.
+#[derive(Debug, Clone, Serialize)]
+pub struct Step {
+    pub effect: String,
+    pub params: serde_json::Value,
+    pub gap_before: f64,
+    pub gap_after: f64,
+    /// Drop of the total chi-square, the BIC penalty it had to beat, and the families that
+    /// improved.
+    pub evidence: String,
+}
+
+/// One candidate tried in a round (for the report).
+#[derive(Debug, Clone, Serialize)]
+pub struct Trial {
+    pub round: usize,
+    pub effect: String,
+    pub chi2_drop: f64,
+    pub penalty: f64,
+    pub gap_after: f64,
+}
+
+/// The result of the workflow.
+#[derive(Debug, Clone)]
+pub struct GapResult {
+    pub initial: GapModel,
+    pub final_model: GapModel,
+    pub measured: stats::Stats,
+    pub initial_stats: stats::Stats,
+    pub final_stats: stats::Stats,
+    pub gap_initial: stats::Gap,
+    pub gap_final: stats::Gap,
+    pub steps: Vec<Step>,
+    pub trials: Vec<Trial>,
+}
+
+impl GapResult {
+    /// Effects the workflow added, in the order it added them.
+    #[must_use]
+    pub fn named(&self) -> Vec<String> {
+        self.steps.iter().map(|s| s.effect.clone()).collect()
+    }
+}
+
+/// Runs the workflow on a descriptor: from the calibrated start model, or from `model`.
+pub fn run(path: &Path, model: Option<GapModel>, options: &GapOptions) -> Result<GapResult, GapError> {
+    let measured = load_acquisition(path, options)?;
+    let unusable = |message: String| GapError::Unusable { path: path.to_path_buf(), message };
+    let pairs = measured.blocks.iter().filter(|b| b.frames.len() == 2 && matches!(b.light, Light::Bright(_))).count();
+    if pairs < 3 {
+        return Err(unusable(format!("{pairs} bright pairs; the photon transfer needs at least 3")));
+    }
+    if !measured.blocks.iter().any(|b| b.frames.len() == 2 && b.light == Light::Dark) {
+        return Err(unusable("no dark pair ('d' block with 2 images)".into()));
+    }
+    let refine = model.is_none();
+    let start = match model {
+        Some(m) => m,
+        None => start_model(path, measured.bits, options.seed)?,
+    };
+    Ok(fit::search(&measured, start, refine, options))
+}

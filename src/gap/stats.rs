@@ -1,0 +1,585 @@
+//! The statistics compared between a measured and a simulated acquisition, their sampling
+//! uncertainties, and the gap.
+//!
+//! Families (each entry is a value and the variance of its sampling error):
+//!
+//! * `linearity`: mean DN per photon-transfer step (mean against photons); variance of the
+//!   frame mean from the larger of the row-profile, column-profile and pixel variances, so
+//!   correlated fixed patterns count.
+//! * `photon_transfer`: temporal variance per step from the pair, `var (2/N) var^2`.
+//! * `dark`: mean and temporal variance of every dark pair (dark signal against exposure).
+//! * `spatial`: of the averaged dark and bright stacks, the residual variance after removing
+//!   the row and column profiles (white DSNU / PRNU; trimmed at the tail thresholds), the
+//!   variances of the row and column profiles (row/column patterns, fall-off), the row-profile
+//!   variance of the dark pair's difference (temporal row noise), and the fall-off coefficient
+//!   of the bright stack. Variances of variances: `2 v^2 / dof`.
+//! * `spectrum`: peak-to-median ratios of the two largest local maxima of the dark stack's 2-D
+//!   periodogram on a 2x oversampled grid: periodic patterns, separable or diagonal.
+//! * `tails`: pixels of the dark residual above `T` and `3 T` (hot pixels) and of the bright
+//!   residual below `-T` (dead / low pixels), `T` six robust standard deviations of the
+//!   measured residual; Poisson variances.
+//!
+//! Behaviour near saturation is in `linearity` and `photon_transfer` (mean plateau, variance
+//! collapse at the top steps).
+
+use serde::Serialize;
+
+use super::{Acquisition, Light, radius2_map};
+
+/// Tail thresholds, fixed from the measured data and applied to both acquisitions.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Thresholds {
+    pub dark_dn: f64,
+    pub bright_dn: f64,
+}
+
+/// One compared statistic.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Entry {
+    pub family: &'static str,
+    pub label: String,
+    /// The abscissa for plots (photons, exposure), or 0.
+    pub x: f64,
+    pub value: f64,
+    /// Variance of the sampling error of `value`.
+    pub var: f64,
+}
+
+/// Photon-transfer step.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct StepStats {
+    pub photons: f64,
+    pub exposure_s: f64,
+    pub mean_dn: f64,
+    pub var_dn2: f64,
+}
+
+/// Dark pair.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct DarkStats {
+    pub exposure_s: f64,
+    pub mean_dn: f64,
+    pub var_dn2: f64,
+    /// Row-profile variance of `(A - B) / sqrt 2`.
+    pub diff_row_var_dn2: f64,
+}
+
+/// An averaged stack.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct StackStats {
+    pub frames: usize,
+    pub exposure_s: f64,
+    pub photons: f64,
+    pub mean_dn: f64,
+    pub resid_var_dn2: f64,
+    pub row_var_dn2: f64,
+    pub col_var_dn2: f64,
+    pub above_t: f64,
+    pub above_3t: f64,
+    pub below_t: f64,
+    /// Mean residual of the pixels above `T`, DN (0 when none).
+    pub above_t_mean_dn: f64,
+}
+
+/// A periodogram peak.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Peak {
+    /// Power over the median power of the grid.
+    pub ratio: f64,
+    pub fx_cycles_per_px: f64,
+    pub fy_cycles_per_px: f64,
+    /// Amplitude^2 of a sinusoid at the peak above the noise floor, DN^2.
+    pub amp2_dn2: f64,
+}
+
+/// Every statistic of one acquisition.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Stats {
+    pub width: usize,
+    pub height: usize,
+    pub steps: Vec<StepStats>,
+    pub darks: Vec<DarkStats>,
+    pub dark_stack: Option<StackStats>,
+    pub bright_stack: Option<StackStats>,
+    /// Relative fall-off `c` of the bright stack over the dark stack and its variance.
+    pub falloff: Option<(f64, f64)>,
+    /// The two largest local maxima of the dark stack's 2-D periodogram.
+    pub peaks: Vec<Peak>,
+    pub entries: Vec<Entry>,
+    /// The thresholds the tails were counted with.
+    pub thresholds: Option<Thresholds>,
+}
+
+fn mean(v: &[f64]) -> f64 {
+    v.iter().sum::<f64>() / v.len().max(1) as f64
+}
+
+fn var(v: &[f64]) -> f64 {
+    let m = mean(v);
+    v.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / (v.len().max(2) - 1) as f64
+}
+
+fn row_means(img: &[f64], w: usize, h: usize) -> Vec<f64> {
+    (0..h).map(|r| mean(&img[r * w..(r + 1) * w])).collect()
+}
+
+fn col_means(img: &[f64], w: usize, h: usize) -> Vec<f64> {
+    (0..w).map(|c| (0..h).map(|r| img[r * w + c]).sum::<f64>() / h as f64).collect()
+}
+
+/// Variance of a sequence's white part from its successive differences, `mean(d^2) / 2`.
+fn diff_var(v: &[f64]) -> f64 {
+    if v.len() < 2 {
+        return 0.0;
+    }
+    v.windows(2).map(|p| (p[1] - p[0]).powi(2)).sum::<f64>() / (2.0 * (v.len() - 1) as f64)
+}
+
+/// The image minus its row and column profiles (plus the grand mean).
+fn residual(img: &[f64], w: usize, h: usize) -> Vec<f64> {
+    let (rm, cm) = (row_means(img, w, h), col_means(img, w, h));
+    let g = mean(img);
+    img.iter().enumerate().map(|(i, v)| v - rm[i / w] - cm[i % w] + g).collect()
+}
+
+/// Median absolute deviation scaled to a Gaussian standard deviation.
+fn robust_sd(v: &[f64]) -> f64 {
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    let med = s[s.len() / 2];
+    let mut d: Vec<f64> = s.iter().map(|x| (x - med).abs()).collect();
+    d.sort_by(f64::total_cmp);
+    1.4826 * d[d.len() / 2]
+}
+
+fn stack_mean(frames: &[Vec<f32>]) -> Vec<f64> {
+    let n = frames[0].len();
+    let mut out = vec![0f64; n];
+    for f in frames {
+        out.iter_mut().zip(f).for_each(|(o, &v)| *o += f64::from(v));
+    }
+    let l = frames.len() as f64;
+    out.iter_mut().for_each(|o| *o /= l);
+    out
+}
+
+/// Peaks of the 2-D periodogram of an image (mean removed): `P = 4 |DFT|^2 / N^2` (A^2 for a
+/// plane wave of amplitude A), on a grid oversampled `over` times, fx in 0..0.5 and fy in
+/// -0.5..0.5 (the half-plane), skipping |f| below 2 cycles per frame. Returns the `top` largest
+/// local maxima as (power, fx, fy), and the median power of the grid.
+#[must_use]
+pub fn peaks_2d(img: &[f64], w: usize, h: usize, over: usize, top: usize) -> (Vec<(f64, f64, f64)>, f64) {
+    let m = mean(img);
+    let nfx = over * w / 2 + 1;
+    let nfy = over * h;
+    let fx: Vec<f64> = (0..nfx).map(|k| k as f64 / (over * w) as f64).collect();
+    let fy: Vec<f64> = (0..nfy).map(|k| k as f64 / (over * h) as f64 - 0.5).collect();
+    // Along x for every row: X[r][k] = sum_c (img - m) e^(-2 pi i fx_k c), with tables of the
+    // twiddle factors so the transform is multiply-adds only.
+    let tw = std::f64::consts::TAU;
+    let tx: Vec<(f64, f64)> =
+        fx.iter().flat_map(|f| (0..w).map(move |c| ((tw * f * c as f64).cos(), -(tw * f * c as f64).sin()))).collect();
+    let ty: Vec<(f64, f64)> =
+        fy.iter().flat_map(|g| (0..h).map(move |r| ((tw * g * r as f64).cos(), -(tw * g * r as f64).sin()))).collect();
+    let mut xr = vec![(0.0f64, 0.0f64); nfx * h];
+    for r in 0..h {
+        let row: Vec<f64> = img[r * w..(r + 1) * w].iter().map(|v| v - m).collect();
+        for k in 0..nfx {
+            let t = &tx[k * w..(k + 1) * w];
+            let (mut re, mut im) = (0.0, 0.0);
+            for (v, (c, s)) in row.iter().zip(t) {
+                re += v * c;
+                im += v * s;
+            }
+            xr[k * h + r] = (re, im);
+        }
+    }
+    let n2 = ((w * h) as f64).powi(2);
+    let mut p = vec![0f64; nfx * nfy];
+    for k in 0..nfx {
+        let col = &xr[k * h..(k + 1) * h];
+        for j in 0..nfy {
+            let t = &ty[j * h..(j + 1) * h];
+            let (mut re, mut im) = (0.0, 0.0);
+            for ((a, b), (c, s)) in col.iter().zip(t) {
+                re += a * c - b * s;
+                im += a * s + b * c;
+            }
+            p[k * nfy + j] = 4.0 * (re * re + im * im) / n2;
+        }
+    }
+    let min_f = 2.0 / w.max(h) as f64;
+    let mut on_grid: Vec<f64> = Vec::new();
+    let mut found = Vec::new();
+    for k in 0..nfx {
+        for j in 0..nfy {
+            // Half-plane: fx > 0, or fx = 0 and fy > 0 (the rest mirrors it).
+            if (fx[k] * fx[k] + fy[j] * fy[j]).sqrt() < min_f || (k == 0 && fy[j] <= 0.0) {
+                continue;
+            }
+            let v = p[k * nfy + j];
+            if k % over == 0 && j % over == 0 {
+                on_grid.push(v);
+            }
+            let mut is_max = true;
+            for dk in -1i64..=1 {
+                for dj in -1i64..=1 {
+                    let (kk, jj) = (k as i64 + dk, j as i64 + dj);
+                    if (dk, dj) != (0, 0)
+                        && kk >= 0
+                        && jj >= 0
+                        && (kk as usize) < nfx
+                        && (jj as usize) < nfy
+                        && p[kk as usize * nfy + jj as usize] > v
+                    {
+                        is_max = false;
+                    }
+                }
+            }
+            if is_max {
+                found.push((v, fx[k], fy[j]));
+            }
+        }
+    }
+    found.sort_by(|a, b| b.0.total_cmp(&a.0));
+    found.truncate(top);
+    on_grid.sort_by(f64::total_cmp);
+    let median = on_grid.get(on_grid.len() / 2).copied().unwrap_or(0.0);
+    (found, median)
+}
+
+/// Mean image of a stack (public for probes and tests).
+#[must_use]
+pub fn average(frames: &[Vec<f32>]) -> Vec<f64> {
+    stack_mean(frames)
+}
+
+/// Of a temporal pair: mean, temporal variance, variance of the mean, row-profile variance of
+/// the difference, and the difference's fourth central moment.
+fn pair_stats(a: &[f32], b: &[f32], w: usize, h: usize) -> (f64, f64, f64, f64, f64) {
+    let n = a.len() as f64;
+    let avg: Vec<f64> = a.iter().zip(b).map(|(&x, &y)| 0.5 * (f64::from(x) + f64::from(y))).collect();
+    let diff: Vec<f64> =
+        a.iter().zip(b).map(|(&x, &y)| (f64::from(x) - f64::from(y)) / std::f64::consts::SQRT_2).collect();
+    let m = mean(&avg);
+    let v = var(&diff);
+    // Variance of the frame mean: white, row-correlated or column-correlated patterns; the
+    // profiles' variances from successive differences, so smooth shading (a deterministic
+    // fall-off, not a sampling error) does not count.
+    let mean_var = (var(&avg) / n)
+        .max(diff_var(&row_means(&avg, w, h)) / h as f64)
+        .max(diff_var(&col_means(&avg, w, h)) / w as f64);
+    let md = mean(&diff);
+    let m4 = diff.iter().map(|d| (d - md).powi(4)).sum::<f64>() / n;
+    (m, v, mean_var, var(&row_means(&diff, w, h)), m4)
+}
+
+/// Sampling variance of a temporal variance `v` estimated from `n` pixels in `h` rows whose
+/// row-profile variance is `rv`: `(m4 - v^2) / n` from the fourth moment (at least the Gaussian
+/// `2 v^2 / n`; clipped or hot-pixel data are heavy-tailed), plus the row-correlated part
+/// `2 rv^2 / h`.
+fn var_of_var(v: f64, m4: f64, rv: f64, n: f64, h: f64) -> f64 {
+    (m4 - v * v).max(2.0 * v * v) / n + 2.0 * rv * rv / h
+}
+
+/// Thresholds from the measured acquisition.
+#[must_use]
+pub fn thresholds(acq: &Acquisition) -> Thresholds {
+    let (w, h) = (acq.width, acq.height);
+    let mut t = Thresholds { dark_dn: f64::INFINITY, bright_dn: f64::INFINITY };
+    for b in acq.blocks.iter().filter(|b| b.frames.len() > 2) {
+        let r = residual(&stack_mean(&b.frames), w, h);
+        let v = 6.0 * robust_sd(&r).max(0.5);
+        match b.light {
+            Light::Dark if t.dark_dn.is_infinite() => t.dark_dn = v,
+            Light::Bright(_) if t.bright_dn.is_infinite() => t.bright_dn = v,
+            _ => {}
+        }
+    }
+    t
+}
+
+/// Row and column means over the pixels not masked.
+fn masked_profiles(img: &[f64], w: usize, h: usize, mask: &[bool]) -> (Vec<f64>, Vec<f64>, f64) {
+    let (mut rs, mut rn) = (vec![0f64; h], vec![0usize; h]);
+    let (mut cs, mut cn) = (vec![0f64; w], vec![0usize; w]);
+    let (mut g, mut gn) = (0.0, 0usize);
+    for (i, &v) in img.iter().enumerate() {
+        if mask[i] {
+            continue;
+        }
+        let (r, c) = (i / w, i % w);
+        rs[r] += v;
+        rn[r] += 1;
+        cs[c] += v;
+        cn[c] += 1;
+        g += v;
+        gn += 1;
+    }
+    let g = g / gn.max(1) as f64;
+    let avg = |s: Vec<f64>, n: Vec<usize>| -> Vec<f64> {
+        s.into_iter().zip(n).map(|(s, n)| if n > 0 { s / n as f64 } else { g }).collect()
+    };
+    (avg(rs, rn), avg(cs, cn), g)
+}
+
+/// Stack statistics. Pixels beyond the threshold `t` (hot, dead) are found on a first residual
+/// and left out of the profiles, so one hot pixel does not shift its whole row and column.
+fn stack_stats(
+    frames: &[Vec<f32>],
+    exposure_s: f64,
+    photons: f64,
+    t: f64,
+    w: usize,
+    h: usize,
+) -> (StackStats, Vec<f64>) {
+    let img = stack_mean(frames);
+    let first = residual(&img, w, h);
+    let mask: Vec<bool> = first.iter().map(|v| v.abs() > t).collect();
+    let (rm, cm, g) = masked_profiles(&img, w, h, &mask);
+    let r: Vec<f64> = img.iter().enumerate().map(|(i, v)| v - rm[i / w] - cm[i % w] + g).collect();
+    let kept: Vec<f64> = r.iter().copied().filter(|v| v.abs() <= t).collect();
+    let count = |f: &dyn Fn(f64) -> bool| r.iter().filter(|&&v| f(v)).count() as f64;
+    let s = StackStats {
+        frames: frames.len(),
+        exposure_s,
+        photons,
+        mean_dn: mean(&img),
+        resid_var_dn2: if kept.len() > 1 { var(&kept) } else { 0.0 },
+        row_var_dn2: var(&rm),
+        col_var_dn2: var(&cm),
+        above_t: count(&|v| v > t),
+        above_3t: count(&|v| v > 3.0 * t),
+        below_t: count(&|v| v < -t),
+        above_t_mean_dn: {
+            let hot: Vec<f64> = r.iter().copied().filter(|&v| v > t).collect();
+            if hot.is_empty() { 0.0 } else { mean(&hot) }
+        },
+    };
+    (s, img)
+}
+
+/// Computes every statistic of `acq` with the measured data's thresholds.
+#[must_use]
+pub fn compute(acq: &Acquisition, t: &Thresholds) -> Stats {
+    let (w, h) = (acq.width, acq.height);
+    let n = (w * h) as f64;
+    let mut entries = Vec::new();
+    let mut steps = Vec::new();
+    let mut darks = Vec::new();
+    let mut dark_stack = None;
+    let mut bright_stack = None;
+    let (mut dark_img, mut bright_img) = (None, None);
+    let mut mean_vars = Vec::new();
+    for b in &acq.blocks {
+        if b.frames.len() == 2 {
+            let (m, v, mv, rv, m4) = pair_stats(&b.frames[0], &b.frames[1], w, h);
+            match b.light {
+                Light::Bright(p) => {
+                    steps.push(StepStats { photons: p, exposure_s: b.exposure_s, mean_dn: m, var_dn2: v });
+                    mean_vars.push((mv, rv, m4));
+                }
+                Light::Dark => {
+                    darks.push(DarkStats { exposure_s: b.exposure_s, mean_dn: m, var_dn2: v, diff_row_var_dn2: rv });
+                    entries.push(Entry {
+                        family: "dark",
+                        label: format!("dark mean {:.4} s", b.exposure_s),
+                        x: b.exposure_s,
+                        value: m,
+                        var: mv,
+                    });
+                    entries.push(Entry {
+                        family: "dark",
+                        label: format!("dark variance {:.4} s", b.exposure_s),
+                        x: b.exposure_s,
+                        value: v,
+                        var: var_of_var(v, m4, rv, n, h as f64),
+                    });
+                }
+            }
+        } else if b.frames.len() > 2 {
+            match b.light {
+                Light::Dark if dark_stack.is_none() => {
+                    let (s, img) = stack_stats(&b.frames, b.exposure_s, 0.0, t.dark_dn, w, h);
+                    dark_stack = Some(s);
+                    dark_img = Some(img);
+                }
+                Light::Bright(p) if bright_stack.is_none() => {
+                    let (s, img) = stack_stats(&b.frames, b.exposure_s, p, t.bright_dn, w, h);
+                    bright_stack = Some(s);
+                    bright_img = Some(img);
+                }
+                _ => {}
+            }
+        }
+    }
+    for (i, (s, (mv, rv, m4))) in steps.iter().zip(&mean_vars).enumerate() {
+        entries.push(Entry {
+            family: "linearity",
+            label: format!("step {i} mean"),
+            x: s.photons,
+            value: s.mean_dn,
+            var: *mv,
+        });
+        entries.push(Entry {
+            family: "photon_transfer",
+            label: format!("step {i} variance"),
+            x: s.photons,
+            value: s.var_dn2,
+            var: var_of_var(s.var_dn2, *m4, *rv, n, h as f64),
+        });
+    }
+    if let Some(d) = darks.first() {
+        entries.push(Entry {
+            family: "spatial",
+            label: "dark pair difference row-profile variance".into(),
+            x: 0.0,
+            value: d.diff_row_var_dn2,
+            var: 2.0 * d.diff_row_var_dn2.powi(2) / h as f64,
+        });
+    }
+    let nr = ((w.saturating_sub(1)) * (h.saturating_sub(1))).max(1) as f64;
+    for (name, s) in [("dark", &dark_stack), ("bright", &bright_stack)] {
+        let Some(s) = s else { continue };
+        let e = |label: &str, value: f64, dof: f64| Entry {
+            family: "spatial",
+            label: format!("{name} stack {label}"),
+            x: 0.0,
+            value,
+            var: 2.0 * value * value / dof,
+        };
+        entries.push(e("residual variance", s.resid_var_dn2, nr));
+        entries.push(e("row-profile variance", s.row_var_dn2, h as f64));
+        entries.push(e("column-profile variance", s.col_var_dn2, w as f64));
+        let c = |label: &str, value: f64| Entry {
+            family: "tails",
+            label: format!("{name} stack {label}"),
+            x: 0.0,
+            value,
+            var: value + 0.5,
+        };
+        if name == "dark" {
+            entries.push(c("pixels above T", s.above_t));
+            entries.push(c("pixels above 3T", s.above_3t));
+        } else {
+            entries.push(c("pixels below -T", s.below_t));
+        }
+    }
+    let falloff = bright_img.as_ref().map(|b| {
+        let r2 = radius2_map(w, h);
+        let sig: Vec<f64> = match &dark_img {
+            Some(d) => b.iter().zip(d).map(|(x, y)| x - y).collect(),
+            None => b.clone(),
+        };
+        let sm = mean(&sig);
+        let sxx: f64 = r2.iter().map(|r| r * r).sum();
+        let slope = r2.iter().zip(&sig).map(|(r, s)| r * (s - sm)).sum::<f64>() / sxx.max(1e-300);
+        let resid: Vec<f64> = r2.iter().zip(&sig).map(|(r, s)| s - sm - slope * r).collect();
+        let c = -slope / sm.abs().max(1e-9);
+        let vc = var(&resid) / sxx.max(1e-300) / (sm * sm).max(1e-18);
+        (c, vc)
+    });
+    if let Some((c, vc)) = falloff {
+        entries.push(Entry { family: "spatial", label: "bright stack fall-off".into(), x: 0.0, value: c, var: vc });
+    }
+    let peaks: Vec<Peak> = match &dark_img {
+        Some(d) => {
+            let (found, median) = peaks_2d(d, w, h, 2, 2);
+            let median = median.max(1e-12);
+            let floor = median / std::f64::consts::LN_2;
+            found
+                .into_iter()
+                .map(|(p, fx, fy)| Peak {
+                    ratio: p / median,
+                    fx_cycles_per_px: fx,
+                    fy_cycles_per_px: fy,
+                    amp2_dn2: (p - floor).max(0.0),
+                })
+                .collect()
+        }
+        None => Vec::new(),
+    };
+    for (i, p) in peaks.iter().enumerate() {
+        entries.push(Entry {
+            family: "spectrum",
+            label: format!("dark stack 2-D periodogram peak {} / median", i + 1),
+            x: p.fx_cycles_per_px,
+            value: p.ratio,
+            // Noise only: the maximum of many exponential bins spreads by ~1.3 floors (1.85
+            // medians); a sinusoid adds its cross term with the noise.
+            var: 1.85f64.powi(2) + 2.0 * p.ratio,
+        });
+    }
+    Stats { width: w, height: h, steps, darks, dark_stack, bright_stack, falloff, peaks, entries, thresholds: Some(*t) }
+}
+
+/// The families in report order.
+pub const FAMILIES: [&str; 6] = ["linearity", "photon_transfer", "dark", "spatial", "spectrum", "tails"];
+
+/// A family's chi-square.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct FamilyGap {
+    pub family: &'static str,
+    pub chi2: f64,
+    pub dof: usize,
+    pub chi2_per_dof: f64,
+}
+
+/// The gap between two sets of statistics.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Gap {
+    /// Mean over families of chi-square per degree of freedom, minus 1: ~0 when the model
+    /// matches within sampling noise.
+    pub gap: f64,
+    /// Sum of every entry's squared normalised residual (the BIC's likelihood term).
+    pub chi2_total: f64,
+    pub n: usize,
+    pub families: Vec<FamilyGap>,
+    /// Normalised residual `(measured - simulated) / sigma` per entry, in entry order.
+    pub residuals: Vec<f64>,
+}
+
+/// Compares simulated statistics with measured ones (entries must correspond one to one).
+#[must_use]
+pub fn gap(measured: &Stats, simulated: &Stats) -> Gap {
+    let mut residuals = Vec::new();
+    let mut families = Vec::new();
+    let mut total = 0.0;
+    for fam in FAMILIES {
+        let (mut chi2, mut dof) = (0.0, 0usize);
+        for (m, s) in measured.entries.iter().zip(&simulated.entries) {
+            if m.family != fam {
+                continue;
+            }
+            let sd = (m.var + s.var).max(1e-18).sqrt();
+            let z = (m.value - s.value) / sd;
+            chi2 += z * z;
+            dof += 1;
+        }
+        if dof > 0 {
+            total += chi2;
+            families.push(FamilyGap { family: fam, chi2, dof, chi2_per_dof: chi2 / dof as f64 });
+        }
+    }
+    for (m, s) in measured.entries.iter().zip(&simulated.entries) {
+        residuals.push((m.value - s.value) / (m.var + s.var).max(1e-18).sqrt());
+    }
+    let n = residuals.len();
+    let g = families.iter().map(|f| f.chi2_per_dof).sum::<f64>() / families.len().max(1) as f64 - 1.0;
+    Gap { gap: g, chi2_total: total, n, families, residuals }
+}
+
+/// Per photon-transfer step, the squared normalised residuals of its mean and variance.
+#[must_use]
+pub fn gap_per_step(g: &Gap, measured: &Stats) -> Vec<(f64, f64)> {
+    let mut out: Vec<(f64, f64)> = Vec::new();
+    for (e, r) in measured.entries.iter().zip(&g.residuals) {
+        if e.family == "linearity" || e.family == "photon_transfer" {
+            match out.iter_mut().find(|(x, _)| *x == e.x) {
+                Some(o) => o.1 += r * r,
+                None => out.push((e.x, r * r)),
+            }
+        }
+    }
+    out
+}

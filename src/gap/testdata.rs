@@ -1,0 +1,196 @@
+//! Hidden-effect data sets: EMVA 1288 descriptors with 16-bit PNG frames, simulated by the
+//! project's own noise model with zero, one or two effects switched on at random strengths, to
+//! test that the gap workflow names exactly the hidden effects.
+//!
+//! Layout (small, so a case runs in well under a second): 64 x 48 pixels, 12 bit, 12 radiance
+//! steps of 2 frames at 10 ms, dark pairs at 10, 40 and 160 ms (a dark exposure series, so
+//! dark current is measurable), 16 bright frames at half scale and 16 dark frames at 10 ms.
+//! `read_noise_split` is never hidden: it needs two gains and a descriptor holds one.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use rand::Rng as _;
+
+use super::{Acquisition, Block, GapModel, IlluminationFalloff, Light, Optics, simulate_acquisition};
+use crate::rng;
+use crate::sensor::SensorModel;
+use crate::sensor::noise::{self, Effects};
+
+/// Effects a hidden case may switch on.
+pub const HIDDEN: [&str; 10] = [
+    "black_level",
+    "dark_current",
+    "saturation",
+    "nonlinearity",
+    "dsnu",
+    "prnu",
+    "hot_pixels",
+    "row_column_noise",
+    "periodic_pattern",
+    "illumination_falloff",
+];
+
+const WIDTH: usize = 64;
+const HEIGHT: usize = 48;
+const BITS: u32 = 12;
+const EXPOSURE_S: f64 = 0.01;
+const STEPS: usize = 12;
+const STACK_FRAMES: usize = 16;
+
+/// A hidden-effect case: the true model and the effects switched on.
+#[derive(Debug, Clone)]
+pub struct HiddenCase {
+    pub hidden: Vec<&'static str>,
+    pub model: GapModel,
+}
+
+/// Draws case `index`: `n_effects` distinct effects (0..=2) at random strengths on a random
+/// clean camera (K 0.08..0.25 DN/e-, QE 0.4..0.8, read noise 6..20 e-).
+#[must_use]
+pub fn random_case(seed: u64, n_effects: usize) -> HiddenCase {
+    let mut r = rng::stream(seed, "gap/testdata");
+    let k = r.random_range(0.08..0.25);
+    let read = r.random_range(6.0..20.0);
+    let read_dn = k * read;
+    let mut hidden: Vec<&'static str> = Vec::new();
+    while hidden.len() < n_effects.min(2) {
+        let e = HIDDEN[r.random_range(0..HIDDEN.len())];
+        if !hidden.contains(&e) {
+            hidden.push(e);
+        }
+    }
+    hidden.sort_by_key(|e| HIDDEN.iter().position(|h| h == e));
+    let max = f64::from((1u32 << BITS) - 1);
+    let mut e = Effects { quantization: noise::Quantization { enabled: true }, ..Effects::default() };
+    let mut optics = Optics::default();
+    for &h in &hidden {
+        match h {
+            "black_level" => {
+                e.black_level = noise::BlackLevel { enabled: true, offset_dn: r.random_range(20.0..200.0) }
+            }
+            "dark_current" => {
+                // 20..80 DN of dark signal at the longest dark exposure (160 ms).
+                let dn = r.random_range(20.0..80.0);
+                e.dark_current = noise::DarkCurrent { enabled: true, rate_e_per_s: dn / k / 0.16 };
+            }
+            "saturation" => {
+                let fw_dn = r.random_range(0.55..0.75) * max;
+                e.saturation = noise::Saturation { enabled: true, full_well_e: fw_dn / k };
+            }
+            "nonlinearity" => {
+                let a = r.random_range(0.04..0.1);
+                e.nonlinearity = noise::Nonlinearity { enabled: true, a: if r.random::<bool>() { a } else { -a } };
+            }
+            "dsnu" => e.dsnu = noise::Dsnu { enabled: true, std_e: r.random_range(0.8..2.0) * read },
+            "prnu" => e.prnu = noise::Prnu { enabled: true, std_fraction: r.random_range(0.01..0.03) },
+            "hot_pixels" => {
+                let x_dn = r.random_range(20.0..60.0) * read_dn;
+                e.hot_pixels = noise::HotPixels {
+                    enabled: true,
+                    fraction: r.random_range(0.004..0.012),
+                    max_excess_e_per_s: x_dn / k / EXPOSURE_S,
+                };
+            }
+            "row_column_noise" => {
+                e.row_column_noise = noise::RowColumnNoise {
+                    enabled: true,
+                    row_std_dn: r.random_range(0.4..1.0) * read_dn,
+                    column_std_dn: r.random_range(0.4..1.0) * read_dn,
+                };
+            }
+            "periodic_pattern" => {
+                e.periodic_pattern = noise::PeriodicPattern {
+                    enabled: true,
+                    amplitude_dn: r.random_range(0.8..2.0) * read_dn,
+                    freq_x_cycles_per_px: r.random_range(0.06..0.4),
+                    freq_y_cycles_per_px: r.random_range(0.06..0.4),
+                    ..noise::PeriodicPattern::default()
+                };
+            }
+            "illumination_falloff" => {
+                optics.illumination_falloff =
+                    IlluminationFalloff { enabled: true, corner_loss_fraction: r.random_range(0.06..0.2) };
+            }
+            _ => {}
+        }
+    }
+    let sensor = SensorModel {
+        name: format!("hidden-{seed}"),
+        quantum_efficiency: r.random_range(0.4..0.8),
+        system_gain_dn_per_e: k,
+        read_noise_e: read,
+        adc_bits: BITS,
+        pattern_seed: seed ^ 0x5eed,
+        effects: e,
+    };
+    HiddenCase { hidden, model: GapModel { sensor, optics } }
+}
+
+/// The acquisition layout of a case (frames empty): the top step reaches ~90 % of the ADC range
+/// with the linear model.
+#[must_use]
+pub fn layout(model: &GapModel) -> Acquisition {
+    let max = f64::from((1u32 << BITS) - 1);
+    let responsivity = model.sensor.system_gain_dn_per_e * model.sensor.quantum_efficiency;
+    let top = 0.9 * max / responsivity;
+    let empty = |light, exposure_s, n: usize| Block { light, exposure_s, frames: vec![Vec::new(); n] };
+    let mut blocks: Vec<Block> =
+        (1..=STEPS).map(|i| empty(Light::Bright(top * i as f64 / STEPS as f64), EXPOSURE_S, 2)).collect();
+    for t in [EXPOSURE_S, 4.0 * EXPOSURE_S, 16.0 * EXPOSURE_S] {
+        blocks.push(empty(Light::Dark, t, 2));
+    }
+    blocks.push(empty(Light::Bright(0.5 * top), EXPOSURE_S, STACK_FRAMES));
+    blocks.push(empty(Light::Dark, EXPOSURE_S, STACK_FRAMES));
+    Acquisition { width: WIDTH, height: HEIGHT, bits: BITS, blocks }
+}
+
+/// A data-set writing failure.
+#[derive(Debug, thiserror::Error)]
+pub enum WriteDataError {
+    #[error("cannot write {}: {source}", path.display())]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("cannot encode {}: {message}", path.display())]
+    Image { path: PathBuf, message: String },
+}
+
+/// Simulates `model` over `layout` with `seed` and writes `dir/EMVA1288_Data.txt` and its
+/// images; returns the descriptor path.
+pub fn write_dataset(dir: &Path, model: &GapModel, layout: &Acquisition, seed: u64) -> Result<PathBuf, WriteDataError> {
+    let io = |path: &Path| {
+        let path = path.to_path_buf();
+        move |source| WriteDataError::Io { path: path.clone(), source }
+    };
+    std::fs::create_dir_all(dir.join("images")).map_err(io(dir))?;
+    let acq = simulate_acquisition(model, layout, seed, None);
+    let mut text = String::from("# hidden-effect data set written by scene_gen::gap::testdata\nv 3.0\n");
+    let _ = writeln!(text, "n {} {} {}", acq.bits, acq.width, acq.height);
+    for (bi, b) in acq.blocks.iter().enumerate() {
+        let ns = (b.exposure_s * 1e9).round();
+        match b.light {
+            Light::Bright(p) => {
+                let _ = writeln!(text, "b {ns} {p}");
+            }
+            Light::Dark => {
+                let _ = writeln!(text, "d {ns}");
+            }
+        }
+        for (fi, f) in b.frames.iter().enumerate() {
+            let name = format!("images/b{bi:03}_{fi:03}.png");
+            let path = dir.join(&name);
+            let raw: Vec<u16> = f.iter().map(|&v| v as u16).collect();
+            let img =
+                image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::from_raw(acq.width as u32, acq.height as u32, raw)
+                    .ok_or_else(|| WriteDataError::Image { path: path.clone(), message: "size mismatch".into() })?;
+            img.save(&path).map_err(|e| WriteDataError::Image { path: path.clone(), message: e.to_string() })?;
+            let _ = writeln!(text, "i {name}");
+        }
+    }
+    let desc = dir.join("EMVA1288_Data.txt");
+    std::fs::write(&desc, text).map_err(io(&desc))?;
+    Ok(desc)
+}

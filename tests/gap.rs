@@ -1,0 +1,256 @@
+//! The sim-vs-measured gap workflow: hidden-effect data sets written by the project's own
+//! simulator, EMVA 1288 data set 003, and the `scene-gen gap` command.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use scene_gen::gap::{self, GapOptions, testdata};
+use scene_gen::sensor::SensorModel;
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("scene-gen-gap-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// The shared data folder (as tests/calibration.rs finds it).
+fn data_dir() -> PathBuf {
+    let manifest = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut candidates: Vec<PathBuf> = std::env::var_os("SCENE_GEN_DATA").map(PathBuf::from).into_iter().collect();
+    candidates.push(manifest.join("../shared/data"));
+    candidates.push(manifest.join("../../shared/data"));
+    candidates.iter().find(|p| p.join("emva1288-set003-crop").is_dir()).cloned().unwrap_or_else(|| {
+        panic!(
+            "EMVA 1288 data set 003 not found: looked for emva1288-set003-crop/ in {candidates:?}; \
+             clone the shared/ folder beside the repository or set SCENE_GEN_DATA"
+        )
+    })
+}
+
+/// Writes hidden-effect case `seed` (with `n` effects) and returns its descriptor.
+fn write_case(seed: u64, n: usize, dir: &Path) -> (testdata::HiddenCase, PathBuf) {
+    let case = testdata::random_case(seed, n);
+    let layout = testdata::layout(&case.model);
+    let desc = testdata::write_dataset(dir, &case.model, &layout, seed + 1000).unwrap();
+    (case, desc)
+}
+
+/// 40 random cases (seeds 0..40; seed % 3 effects: 14 clean sets, 13 with one effect, 13 with
+/// two), strengths drawn at random from `testdata::random_case`'s ranges.
+///
+/// A hit: the named effects are exactly the hidden ones and, when something is hidden, the gap
+/// shrinks by at least 80 %. Measured: 37 of 40 (92.5 %), with no false name on any of the 14
+/// clean sets. The three misses are all a hidden periodic pattern on sets with no black level
+/// (the generator's offset is then 0, so the dark frames clip at 0 DN): there the closed-form
+/// fits are approximate and the leftover residual in the dark means buys one or two extra names
+/// (dark_current, black_level, row_column_noise) next to the right ones. We assert 34 of 40
+/// (85 %), three misses of slack against re-tuning, and exactly zero names on clean sets.
+#[test]
+fn hidden_effects_are_named_and_the_gap_shrinks() {
+    let dir = temp_dir("hidden");
+    let (mut hits, mut clean_false) = (0, Vec::new());
+    let mut misses = Vec::new();
+    for seed in 0..40u64 {
+        let n = (seed % 3) as usize;
+        let case_dir = dir.join(format!("case{seed}"));
+        let (case, desc) = write_case(seed, n, &case_dir);
+        let r = gap::run(&desc, None, &GapOptions::default()).unwrap();
+        let mut named = r.named();
+        named.sort();
+        let mut hidden: Vec<String> = case.hidden.iter().map(|s| (*s).to_string()).collect();
+        hidden.sort();
+        let shrink_ok = hidden.is_empty() || r.gap_final.gap <= 0.2 * r.gap_initial.gap;
+        if hidden.is_empty() && !named.is_empty() {
+            clean_false.push((seed, named.clone()));
+        }
+        if named == hidden && shrink_ok {
+            hits += 1;
+        } else {
+            misses.push(format!(
+                "seed {seed}: hidden {hidden:?} named {named:?} gap {:.2} -> {:.2}",
+                r.gap_initial.gap, r.gap_final.gap
+            ));
+        }
+        let _ = std::fs::remove_dir_all(&case_dir);
+    }
+    assert!(clean_false.is_empty(), "effects named on clean sets: {clean_false:?}");
+    assert!(hits >= 34, "hit rate {hits}/40; misses:\n{}", misses.join("\n"));
+}
+
+/// The same data set and seed give the same result: the workflow is deterministic.
+#[test]
+fn same_data_same_result() {
+    let dir = temp_dir("determinism");
+    let (_, desc) = write_case(2, 2, &dir);
+    let a = gap::run(&desc, None, &GapOptions::default()).unwrap();
+    let b = gap::run(&desc, None, &GapOptions::default()).unwrap();
+    assert_eq!(a.named(), b.named());
+    assert_eq!(a.gap_final.gap.to_bits(), b.gap_final.gap.to_bits());
+    assert_eq!(a.final_model.sensor, b.final_model.sensor);
+}
+
+/// Fitted parameters land near the hidden truth (not only the names): a DSNU + PRNU case.
+#[test]
+fn fitted_parameters_are_close_to_the_truth() {
+    let dir = temp_dir("params");
+    let mut case = testdata::random_case(77, 0);
+    let e = &mut case.model.sensor.effects;
+    e.black_level.enabled = true;
+    e.black_level.offset_dn = 80.0;
+    e.dsnu.enabled = true;
+    e.dsnu.std_e = 1.5 * case.model.sensor.read_noise_e;
+    e.prnu.enabled = true;
+    e.prnu.std_fraction = 0.02;
+    let layout = testdata::layout(&case.model);
+    let desc = testdata::write_dataset(&dir, &case.model, &layout, 5).unwrap();
+    let r = gap::run(&desc, None, &GapOptions::default()).unwrap();
+    let mut named = r.named();
+    named.sort();
+    assert_eq!(named, ["black_level", "dsnu", "prnu"]);
+    let (t, f) = (&case.model.sensor, &r.final_model.sensor);
+    let rel = |a: f64, b: f64| (a / b - 1.0).abs();
+    assert!((f.effects.black_level.offset_dn - 80.0).abs() < 1.0, "{}", f.effects.black_level.offset_dn);
+    // DSNU in DN (K times electrons): K itself is fitted.
+    let dsnu_dn = |m: &SensorModel| m.effects.dsnu.std_e * m.system_gain_dn_per_e;
+    assert!(rel(dsnu_dn(f), dsnu_dn(t)) < 0.1, "{} vs {}", dsnu_dn(f), dsnu_dn(t));
+    assert!(rel(f.effects.prnu.std_fraction, 0.02) < 0.1, "{}", f.effects.prnu.std_fraction);
+    assert!(rel(f.system_gain_dn_per_e, t.system_gain_dn_per_e) < 0.05);
+}
+
+/// Data set 003 (centre crop), stacks cut to their first 16 frames and every third
+/// photon-transfer step (17 of 50) to keep the test profile under ~20 s. It must name the
+/// documented effects the crop shows clearly (black level, nonlinearity, DSNU, its periodic
+/// pattern, PRNU), nothing outside the documented list, and shrink the gap by 99 %. Its ~6 hot
+/// pixels (excess 0..15 DN against a 2.2 DN spatial spread) leave no tail above the 6-sigma
+/// threshold, so hot_pixels is not required; the in-crop fall-off (~0.2 %) may be named.
+#[test]
+fn set003_names_its_documented_effects() {
+    let desc = data_dir().join("emva1288-set003-crop/EMVA1288_Data.txt");
+    let options = GapOptions { max_stack_frames: Some(16), step_stride: 3, ..GapOptions::default() };
+    let r = gap::run(&desc, None, &options).unwrap();
+    let named = r.named();
+    for must in ["black_level", "nonlinearity", "dsnu", "periodic_pattern", "prnu"] {
+        assert!(named.iter().any(|n| n == must), "{must} not named: {named:?}");
+    }
+    let documented = ["black_level", "nonlinearity", "dsnu", "periodic_pattern", "prnu", "hot_pixels"];
+    for n in &named {
+        assert!(documented.contains(&n.as_str()) || n == "illumination_falloff", "undocumented effect {n}");
+    }
+    assert!(r.gap_final.gap < 0.01 * r.gap_initial.gap, "{} -> {}", r.gap_initial.gap, r.gap_final.gap);
+    let s = &r.final_model.sensor;
+    let e = &s.effects;
+    // Truth (data/README.md): K 0.1, dark 29.4 DN, nonlinearity -0.02, DSNU white 1.5 DN,
+    // waves of 1.5 DN, PRNU 0.5 %.
+    assert!((s.system_gain_dn_per_e - 0.1).abs() < 0.005, "K {}", s.system_gain_dn_per_e);
+    assert!((e.black_level.offset_dn - 29.4).abs() < 0.3, "black {}", e.black_level.offset_dn);
+    assert!((e.nonlinearity.a + 0.02).abs() < 0.005, "a {}", e.nonlinearity.a);
+    let dsnu_dn = e.dsnu.std_e * s.system_gain_dn_per_e;
+    assert!((dsnu_dn - 1.5).abs() < 0.3, "DSNU {dsnu_dn} DN");
+    assert!((e.periodic_pattern.amplitude_dn - 1.5).abs() < 0.2, "wave amplitude {}", e.periodic_pattern.amplitude_dn);
+    assert!((e.prnu.std_fraction - 0.005).abs() < 0.001, "PRNU {}", e.prnu.std_fraction);
+}
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_scene-gen"))
+}
+
+/// `scene-gen gap --json`: only the summary on stdout, every output file written, the model
+/// reads back; starting from the true model (`--model`) there is nothing to add.
+#[test]
+fn cli_writes_reports_and_prints_json() {
+    let dir = temp_dir("cli");
+    let (case, desc) = write_case(1, 1, &dir.join("data"));
+    let out = dir.join("out");
+    let o = bin().arg("gap").arg(&desc).arg("--out").arg(&out).arg("--json").output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("stdout is one JSON document");
+    let keys: Vec<&String> = v.as_object().unwrap().keys().collect();
+    assert_eq!(keys, ["gap_final", "gap_initial", "named", "steps"]);
+    assert_eq!(v["named"], serde_json::json!(case.hidden));
+    let step = &v["steps"][0];
+    for k in ["effect", "params", "gap_before", "gap_after", "evidence"] {
+        assert!(step.get(k).is_some(), "step lacks {k}: {step}");
+    }
+    for f in [
+        "report.md",
+        "report.json",
+        "model.toml",
+        "optics.toml",
+        "photon_transfer.png",
+        "residuals.png",
+        "gap_per_step.png",
+    ] {
+        assert!(out.join(f).is_file(), "{f} missing");
+    }
+    let png = image::open(out.join("photon_transfer.png")).unwrap();
+    assert_eq!((png.width(), png.height()), (720, 480));
+    let model = SensorModel::from_toml(&std::fs::read_to_string(out.join("model.toml")).unwrap()).unwrap();
+    assert!(model.effects.nonlinearity.enabled, "{:?}", model.effects);
+
+    // The true model as the start: nothing left to name.
+    std::fs::write(dir.join("true.toml"), case.model.sensor.to_toml().unwrap()).unwrap();
+    let out2 = dir.join("out2");
+    let o = bin()
+        .arg("gap")
+        .arg(&desc)
+        .arg("--model")
+        .arg(dir.join("true.toml"))
+        .arg("--out")
+        .arg(&out2)
+        .arg("--json")
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["named"], serde_json::json!([]), "{v}");
+    assert!(v["gap_initial"].as_f64().unwrap() < 1.0, "{v}");
+}
+
+/// Bad input exits 2 with a message naming the file, and writes nothing.
+#[test]
+fn cli_refuses_bad_input_without_output() {
+    let dir = temp_dir("bad");
+    let out = dir.join("out");
+    let missing = dir.join("nope.txt");
+    let o = bin().arg("gap").arg(&missing).arg("--out").arg(&out).output().unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("nope.txt"));
+    assert!(!out.exists());
+
+    let bad = dir.join("bad.txt");
+    std::fs::write(&bad, "n 12 8 8\nb 1000 10\ni a.png\n").unwrap();
+    let o = bin().arg("gap").arg(&bad).arg("--out").arg(&out).output().unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("bad.txt"), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(!out.exists());
+
+    let (_, desc) = write_case(3, 0, &dir.join("data"));
+    std::fs::write(dir.join("model.toml"), "name = \"x\"\nquantum_efficiency = 2.0\n").unwrap();
+    let o =
+        bin().arg("gap").arg(&desc).arg("--model").arg(dir.join("model.toml")).arg("--out").arg(&out).output().unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("model.toml"));
+    assert!(!out.exists());
+}
+
+/// A minimal descriptor (16 x 12 pixels, 4 steps, one dark pair, no spatial stacks) runs: no
+/// stack statistics, no spatial candidates, the linear model refitted. (With 11 statistics the
+/// BIC penalty is weak and a clean set this small can lose to a borderline candidate, so names
+/// are not asserted here; the 40-case test covers naming.)
+#[test]
+fn minimal_descriptor_without_stacks() {
+    let dir = temp_dir("minimal");
+    let case = testdata::random_case(5, 0);
+    let block = |light, n: usize| gap::Block { light, exposure_s: 0.01, frames: vec![Vec::new(); n] };
+    let mut blocks: Vec<gap::Block> = (1..=4).map(|i| block(gap::Light::Bright(2000.0 * f64::from(i)), 2)).collect();
+    blocks.push(block(gap::Light::Dark, 2));
+    let layout = gap::Acquisition { width: 16, height: 12, bits: 12, blocks };
+    let desc = testdata::write_dataset(&dir, &case.model, &layout, 9).unwrap();
+    let r = gap::run(&desc, None, &GapOptions::default()).unwrap();
+    assert!(r.measured.dark_stack.is_none() && r.measured.bright_stack.is_none());
+    assert_eq!(r.measured.entries.len(), 11);
+    assert!(r.trials.iter().all(|t| !["dsnu", "prnu", "hot_pixels", "periodic_pattern"].contains(&t.effect.as_str())));
+    let k = r.final_model.sensor.system_gain_dn_per_e / case.model.sensor.system_gain_dn_per_e;
+    assert!((k - 1.0).abs() < 0.15, "K ratio {k}");
+}
