@@ -12,7 +12,7 @@
 //!                                                      camera_spec + sensor catalog ──► radiometry: nit → lux → photons → e-
 //!                                                                                      → sensor noise model → DN
 //!                                                                                    ──► detection (AP), orb (features)
-//! measured data (EMVA 1288, CSV) ─► calibration ─► sensor model (TOML)
+//! measured data (EMVA 1288, CSV) ─► calibration ─► gap workflow ─► sensor model (TOML)
 //! ```
 //!
 //! Generation:
