@@ -14,7 +14,8 @@
 //!
 //! ```no_run
 //! use scene_gen::render::{Camera, RenderSettings, Renderer};
-//! # let scene: scene_gen::scene::Scene = unimplemented!();
+//! use scene_gen::{config::GeneratorConfig, generate::generate, library::Library};
+//! let scene = generate(&GeneratorConfig { seed: 7, ..GeneratorConfig::default() }, &Library::embedded()?)?;
 //! let renderer = Renderer::new(&scene, RenderSettings::default());
 //! let camera = Camera {
 //!     width_px: 640, height_px: 480, pixel_pitch_um: 5.86, focal_mm: 4.0, f_number: 2.0,
@@ -22,7 +23,7 @@
 //! };
 //! let frame = renderer.render(&camera)?;
 //! println!("centre depth {} m", frame.depth_m[frame.index(320, 240)]);
-//! # Ok::<(), scene_gen::render::RenderError>(())
+//! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 //!
 //! Determinism: every random number comes from [`crate::rng::substream`] keyed by the settings'
