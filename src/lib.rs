@@ -58,6 +58,7 @@ pub mod camera_spec;
 pub mod config;
 pub mod decor;
 pub mod detection;
+pub mod evaluate;
 pub mod export;
 pub mod floorplan;
 pub mod gap;
