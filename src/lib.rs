@@ -39,6 +39,8 @@
 //! * [`detection`]: ground truth from instance buffers, the built-in detectability model,
 //!   COCO evaluation (pycocotools-exact AP) and threshold visibility.
 //! * [`orb`]: OpenCV-compatible ORB features, cross-checked matching, RANSAC inliers.
+//! * [`evaluate`]: a camera candidate's TaCOS scores (threshold accuracy, AP@0.5, ORB inliers)
+//!   and fitness over seeded houses (`scene-gen evaluate`), cached per process.
 //! * [`calibration`]: EMVA 1288 descriptors and photon-transfer CSVs to measured sensor
 //!   parameters (`scene-gen calibrate`).
 //! * [`gap`]: the sim-vs-measured gap workflow (`scene-gen gap`): names the effects the sensor
@@ -58,6 +60,7 @@ pub mod camera_spec;
 pub mod config;
 pub mod decor;
 pub mod detection;
+pub mod evaluate;
 pub mod export;
 pub mod floorplan;
 pub mod gap;

@@ -1,6 +1,7 @@
 //! Command-line definitions and dispatch.
 
 mod calibrate;
+mod evaluate;
 mod gap;
 mod generate;
 mod orb;
@@ -56,6 +57,8 @@ pub enum Command {
     Match(orb::MatchArgs),
     /// Sensor images, depth and instance masks of a camera walking through a generated house.
     Render(render::RenderArgs),
+    /// Perception scores (thresholds, AP@0.5, ORB) and fitness of a camera candidate.
+    Evaluate(evaluate::EvaluateArgs),
 }
 
 pub fn parse() -> Cli {
@@ -71,5 +74,6 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Some(Command::Orb(args)) => orb::run_orb(&args),
         Some(Command::Match(args)) => orb::run_match(&args),
         Some(Command::Render(args)) => render::run(&args),
+        Some(Command::Evaluate(args)) => evaluate::run(&args),
     }
 }

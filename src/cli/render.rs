@@ -35,13 +35,14 @@ use anyhow::{Context, anyhow};
 use clap::{Args, ValueEnum};
 use scene_gen::camera_spec::{CameraSpec, ResolvedCamera};
 use scene_gen::config::GeneratorConfig;
+use scene_gen::evaluate::scenario_light_scales;
 use scene_gen::export::write_atomic;
 use scene_gen::generate::generate;
 use scene_gen::library::Library;
-use scene_gen::lights::{DAY_TARGET_LUX, NIGHT_TARGET_LUX, TARGET_PLANE_M};
+use scene_gen::lights::TARGET_PLANE_M;
 use scene_gen::manifest::Manifest;
 use scene_gen::radiometry::{Capture, capture};
-use scene_gen::render::{Frame, RenderSettings, Renderer, measure_mean_illuminance};
+use scene_gen::render::{Frame, RenderSettings, Renderer};
 use scene_gen::scene::{LightGroup, MANIFEST_SCHEMA, Scene};
 use scene_gen::sensor::Catalog;
 use scene_gen::trajectory::{self, Pose, TrajectoryParams};
@@ -251,16 +252,8 @@ pub fn run(args: &RenderArgs) -> Result<(), CliError> {
         Lighting::Night => vec![LightGroup::Night],
         Lighting::Both => vec![LightGroup::Day, LightGroup::Night],
     };
-    // (group, nominal lux, scale)
-    let mut scales = Vec::new();
-    for &g in &groups {
-        let target = if g == LightGroup::Day { DAY_TARGET_LUX } else { NIGHT_TARGET_LUX };
-        let nominal = measure_mean_illuminance(&renderer, g, TARGET_PLANE_M).map_err(failure)?;
-        if nominal <= 0.0 {
-            return Err(failure(anyhow!("{g:?} lights give no light on the {TARGET_PLANE_M} m plane")));
-        }
-        scales.push((g, nominal, target / nominal, target));
-    }
+    // (group, nominal lux, scale, target lux), shared with the evaluator.
+    let scales = scenario_light_scales(&renderer, scene.seed, &groups).map_err(failure)?;
 
     let mut files: Vec<(String, Vec<u8>)> = Vec::new();
     for k in 0..args.frames {
