@@ -1,27 +1,15 @@
 //! EMVA 1288 calibration: the reference data set 003 against its documented truth, a round
 //! trip through the noise model, and the parsers' refusals.
 
+mod common;
+
+use common::data_dir;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use scene_gen::calibration::{self, calibrate_emva, calibrate_ptc, emva};
 use scene_gen::sensor::SensorModel;
 use scene_gen::sensor::noise::{self, Effects};
-
-/// The shared data folder: `$SCENE_GEN_DATA`, else `shared/data` beside the repository (CI
-/// layout) or one level further up (a worktree under `wt/`).
-fn data_dir() -> PathBuf {
-    let manifest = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let mut candidates: Vec<PathBuf> = std::env::var_os("SCENE_GEN_DATA").map(PathBuf::from).into_iter().collect();
-    candidates.push(manifest.join("../shared/data"));
-    candidates.push(manifest.join("../../shared/data"));
-    candidates.iter().find(|p| p.join("emva1288-set003-crop").is_dir()).cloned().unwrap_or_else(|| {
-        panic!(
-            "EMVA 1288 data set 003 not found: looked for emva1288-set003-crop/ in {candidates:?}; \
-             clone the shared/ folder beside the repository or set SCENE_GEN_DATA"
-        )
-    })
-}
 
 fn set003() -> PathBuf {
     data_dir().join("emva1288-set003-crop/EMVA1288_Data.txt")

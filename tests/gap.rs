@@ -1,6 +1,9 @@
 //! The sim-vs-measured gap workflow: hidden-effect data sets written by the project's own
 //! simulator, EMVA 1288 data set 003, and the `scene-gen gap` command.
 
+mod common;
+
+use common::data_dir;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -12,20 +15,6 @@ fn temp_dir(name: &str) -> PathBuf {
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     dir
-}
-
-/// The shared data folder (as tests/calibration.rs finds it).
-fn data_dir() -> PathBuf {
-    let manifest = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let mut candidates: Vec<PathBuf> = std::env::var_os("SCENE_GEN_DATA").map(PathBuf::from).into_iter().collect();
-    candidates.push(manifest.join("../shared/data"));
-    candidates.push(manifest.join("../../shared/data"));
-    candidates.iter().find(|p| p.join("emva1288-set003-crop").is_dir()).cloned().unwrap_or_else(|| {
-        panic!(
-            "EMVA 1288 data set 003 not found: looked for emva1288-set003-crop/ in {candidates:?}; \
-             clone the shared/ folder beside the repository or set SCENE_GEN_DATA"
-        )
-    })
 }
 
 /// Writes hidden-effect case `seed` (with `n` effects) and returns its descriptor.

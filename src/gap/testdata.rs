@@ -17,19 +17,9 @@ use crate::rng;
 use crate::sensor::SensorModel;
 use crate::sensor::noise::{self, Effects};
 
-/// Effects a hidden case may switch on.
-pub const HIDDEN: [&str; 10] = [
-    "black_level",
-    "dark_current",
-    "saturation",
-    "nonlinearity",
-    "dsnu",
-    "prnu",
-    "hot_pixels",
-    "row_column_noise",
-    "periodic_pattern",
-    "illumination_falloff",
-];
+/// Effects a hidden case may switch on: every effect the workflow can name, so a test can
+/// catch both a missed effect and one it never tries.
+pub const HIDDEN: [&str; 10] = super::fit::CANDIDATES;
 
 const WIDTH: usize = 64;
 const HEIGHT: usize = 48;
