@@ -236,19 +236,7 @@ pub fn evaluate(spec: &CameraSpec, seeds: &[u64], config: &EvalConfig) -> Result
 /// # Errors
 /// As [`evaluate`].
 pub fn evaluate_traced(spec: &CameraSpec, seeds: &[u64], config: &EvalConfig) -> Result<(Evaluation, bool), EvalError> {
-    let mut spec = spec.clone();
-    if config.max_width_px.is_some() {
-        spec.max_width_px = config.max_width_px;
-    }
-    spec.validate()?;
-    if seeds.is_empty() {
-        return Err(EvalError::NoSeeds);
-    }
-    if config.frames_per_scene == 0 {
-        return Err(EvalError::NoFrames);
-    }
-    let catalog = Catalog::embedded();
-    let resolved = spec.resolve(&catalog)?;
+    let (spec, resolved) = prepare(spec, seeds, config)?;
     // Normalised key: the resolved spec (canonical sensor name, defaults filled in) as JSON.
     let mut key_spec = resolved.spec.clone();
     key_spec.sensor = resolved.sensor.model.clone();
@@ -272,6 +260,13 @@ pub fn evaluate_traced(spec: &CameraSpec, seeds: &[u64], config: &EvalConfig) ->
 /// # Errors
 /// As [`evaluate`].
 pub fn evaluate_uncached(spec: &CameraSpec, seeds: &[u64], config: &EvalConfig) -> Result<Evaluation, EvalError> {
+    let (spec, resolved) = prepare(spec, seeds, config)?;
+    compute(&spec, &resolved, seeds, config)
+}
+
+/// Checks the request and resolves the camera against the catalog; shared by the cached and
+/// uncached entry points.
+fn prepare(spec: &CameraSpec, seeds: &[u64], config: &EvalConfig) -> Result<(CameraSpec, ResolvedCamera), EvalError> {
     let mut spec = spec.clone();
     if config.max_width_px.is_some() {
         spec.max_width_px = config.max_width_px;
@@ -284,7 +279,7 @@ pub fn evaluate_uncached(spec: &CameraSpec, seeds: &[u64], config: &EvalConfig) 
         return Err(EvalError::NoFrames);
     }
     let resolved = spec.resolve(&Catalog::embedded())?;
-    compute(&spec, &resolved, seeds, config)
+    Ok((spec, resolved))
 }
 
 /// What one rendered pose contributes.

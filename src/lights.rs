@@ -136,20 +136,7 @@ fn lamp_bulb(lamp: &Object) -> Vec3 {
 }
 
 fn point(position: Vec3, candela: f32, color: [f32; 3], room: u32, object: Option<u32>) -> Light {
-    Light {
-        id: 0,
-        group: LightGroup::Night,
-        kind: LightKind::Point,
-        position: Some(position),
-        direction: None,
-        rect_u: None,
-        rect_v: None,
-        intensity: candela,
-        unit: LightUnit::Cd,
-        color,
-        room: Some(room),
-        object,
-    }
+    Light { color, room: Some(room), object, ..Light::point(LightGroup::Night, position, candela) }
 }
 
 #[cfg(test)]

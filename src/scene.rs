@@ -306,6 +306,28 @@ pub struct Light {
     pub object: Option<u32>,
 }
 
+impl Light {
+    /// An isotropic white point light of `candela` in `group`, in no room; set `color`,
+    /// `room` and `object` on the result as needed. Ids are assigned by whoever collects lights.
+    #[must_use]
+    pub fn point(group: LightGroup, position: Vec3, candela: f32) -> Light {
+        Light {
+            id: 0,
+            group,
+            kind: LightKind::Point,
+            position: Some(position),
+            direction: None,
+            rect_u: None,
+            rect_v: None,
+            intensity: candela,
+            unit: LightUnit::Cd,
+            color: [1.0; 3],
+            room: None,
+            object: None,
+        }
+    }
+}
+
 /// Triangle meshes, materials, textures and placed nodes.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Geometry {

@@ -94,20 +94,7 @@ pub fn box_primitive(min: Vec3, max: Vec3, material: usize, inward: bool) -> Pri
 /// A point light.
 #[must_use]
 pub fn point_light(group: LightGroup, position: Vec3, candela: f32) -> Light {
-    Light {
-        id: 0,
-        group,
-        kind: LightKind::Point,
-        position: Some(position),
-        direction: None,
-        rect_u: None,
-        rect_v: None,
-        intensity: candela,
-        unit: LightUnit::Cd,
-        color: [1.0; 3],
-        room: None,
-        object: None,
-    }
+    Light::point(group, position, candela)
 }
 
 /// A directional light travelling along `direction`, `lux` on a surface facing it.
