@@ -76,6 +76,7 @@ pub mod render;
 pub mod rng;
 pub mod scene;
 pub mod sensor;
+pub mod serve;
 pub mod structure;
 pub mod textures;
 pub mod trajectory;

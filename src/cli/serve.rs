@@ -1,0 +1,45 @@
+//! `scene-gen serve`: the evaluator as a JSON-lines server on stdin/stdout, for any optimizer
+//! (the protocol is documented in [`scene_gen::serve`]).
+
+use std::io::IsTerminal;
+
+use anyhow::anyhow;
+use clap::Args;
+use scene_gen::serve::{PROTOCOL, ServeDefaults, parse_seeds, serve};
+
+use super::{CliError, bad_input, failure};
+
+#[derive(Args, Debug)]
+pub struct ServeArgs {
+    /// Default house seeds of a request that gives none: `A..B` (half-open), `A..=B` or one seed.
+    #[arg(long, default_value = "0..1")]
+    pub seeds: String,
+    /// Default anchor frames per house.
+    #[arg(long, default_value_t = scene_gen::evaluate::DEFAULT_FRAMES_PER_SCENE)]
+    pub frames: u32,
+    /// Default binned image width in pixels (a request's `max_width` or its camera's
+    /// `max_width_px` wins).
+    #[arg(long, default_value_t = scene_gen::evaluate::DEFAULT_MAX_WIDTH_PX)]
+    pub max_width: u32,
+}
+
+pub fn run(args: &ServeArgs) -> Result<(), CliError> {
+    let seeds = parse_seeds(&args.seeds).map_err(|e| bad_input(anyhow!("--{e}")))?;
+    if args.frames == 0 {
+        return Err(bad_input(anyhow!("--frames must be at least 1")));
+    }
+    if args.max_width == 0 {
+        return Err(bad_input(anyhow!("--max-width must be at least 1")));
+    }
+    let defaults = ServeDefaults { seeds, frames: args.frames, max_width: args.max_width };
+    let stdin = std::io::stdin();
+    if stdin.is_terminal() {
+        eprintln!(
+            "scene-gen serve ({PROTOCOL}): one JSON request per line, e.g. \
+             {{\"id\": 1, \"camera\": \"IMX174,focal_mm=4\"}} or {{\"op\": \"describe\"}}; Ctrl-D ends"
+        );
+    }
+    let stdout = std::io::stdout();
+    serve(stdin.lock(), stdout.lock(), &defaults).map_err(|e| failure(anyhow!("serve: {e}")))?;
+    Ok(())
+}
