@@ -44,7 +44,7 @@
 //! ```json
 //! {"id": 0, "op": "describe"}
 //! {"id": 0, "ok": true, "op": "describe", "protocol": "scene-gen/serve/1",
-//!  "sensors": ["OV7251", ..., "IMX183"],
+//!  "sensors": ["PYTHON300", "IMX219", ..., "AM41"],
 //!  "genes": {"sensor": {"type": "categorical", "choices": "sensors"},
 //!            "focal_mm": {"type": "float", "min": 1.0, "max": 20.0},
 //!            "pitch_deg": {"type": "float", "min": -30.0, "max": 30.0}},
@@ -156,7 +156,7 @@ pub enum Op {
 
 /// A camera as a request gives it: the inline string form or a spec object.
 #[derive(Clone, Debug, PartialEq, Deserialize)]
-#[serde(untagged)]
+#[serde(untagged, expecting = "`camera`: a camera spec object or an inline string SENSOR[,key=value]...")]
 pub enum CameraField {
     Inline(String),
     /// Kept as JSON so a bad spec is reported as `bad_camera`, not as a bad request.
@@ -165,7 +165,7 @@ pub enum CameraField {
 
 /// Seeds as a request gives them.
 #[derive(Clone, Debug, PartialEq, Deserialize)]
-#[serde(untagged)]
+#[serde(untagged, expecting = "`seeds`: \"A..B\", \"A..=B\", a seed or a list of seeds (whole numbers >= 0)")]
 pub enum SeedsField {
     One(u64),
     List(Vec<u64>),
@@ -641,6 +641,11 @@ mod tests {
         assert_eq!(kind(&v), "bad_request");
         let v = answer(r#"{"id": 2, "op": "train", "camera": "IMX174"}"#);
         assert_eq!(kind(&v), "bad_request");
+        let v = answer(r#"{"id": 2, "camera": 5}"#);
+        assert_eq!(kind(&v), "bad_request");
+        assert!(v["error"]["message"].as_str().unwrap().contains("`camera`: a camera spec"), "{v}");
+        let v = answer(r#"{"id": 2, "camera": "IMX174", "seeds": [-1]}"#);
+        assert!(v["error"]["message"].as_str().unwrap().contains("`seeds`"), "{v}");
         let v = answer(r#"{"id": 4}"#);
         assert_eq!(kind(&v), "bad_request");
         assert!(v["error"]["message"].as_str().unwrap().contains("camera"));
