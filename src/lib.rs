@@ -58,6 +58,7 @@ pub mod assets;
 pub mod calibration;
 pub mod camera_spec;
 pub mod config;
+pub mod dataset;
 pub mod decor;
 pub mod detection;
 pub mod evaluate;

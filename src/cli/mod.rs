@@ -1,6 +1,7 @@
 //! Command-line definitions and dispatch.
 
 mod calibrate;
+mod dataset;
 mod evaluate;
 mod gap;
 mod generate;
@@ -59,6 +60,8 @@ pub enum Command {
     Render(render::RenderArgs),
     /// Perception scores (thresholds, AP@0.5, ORB) and fitness of a camera candidate.
     Evaluate(evaluate::EvaluateArgs),
+    /// COCO dataset (images, depth, instance masks, annotations) over a seed range, shardable.
+    Dataset(dataset::DatasetArgs),
 }
 
 pub fn parse() -> Cli {
@@ -75,5 +78,6 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Some(Command::Match(args)) => orb::run_match(&args),
         Some(Command::Render(args)) => render::run(&args),
         Some(Command::Evaluate(args)) => evaluate::run(&args),
+        Some(Command::Dataset(args)) => dataset::run(&args),
     }
 }
