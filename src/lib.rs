@@ -45,6 +45,8 @@
 //!   parameters (`scene-gen calibrate`).
 //! * [`gap`]: the sim-vs-measured gap workflow (`scene-gen gap`): names the effects the sensor
 //!   model misses and adds them.
+//! * [`dataset`]: COCO datasets (images, depth, instance masks, RLE annotations) over seed
+//!   ranges, resumable and sharded across machines (`scene-gen dataset`).
 //!
 //! ```no_run
 //! use scene_gen::{config::GeneratorConfig, generate::generate, library::Library};

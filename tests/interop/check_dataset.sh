@@ -9,7 +9,7 @@ bin="${BIN:-target/release/scene-gen}"
 [ -x "$bin" ] || cargo build --release --quiet --bin scene-gen
 out="$(mktemp -d)"
 trap 'rm -rf "$out"' EXIT
-args=(--seeds 0..2 --camera IMX174,focal_mm=3 --frames 3 --max-width 160 --quality preview --out "$out/ds")
+args=(--seeds 0..2 --camera IMX174,focal_mm=3 --frames 6 --max-width 160 --quality preview --out "$out/ds")
 echo "check_dataset: scene-gen dataset ${args[*]:0:10} as two shards, then pycocotools"
 "$bin" dataset "${args[@]}" --shard 0/2 >/dev/null
 "$bin" dataset "${args[@]}" --shard 1/2 >/dev/null
