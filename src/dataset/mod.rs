@@ -16,7 +16,8 @@
 //! 3. [`Dataset::merge`] turns the fragments into `annotations/instances_<lighting>.json`, one
 //!    COCO file per lighting, once every seed of the range has its fragment.
 //!
-//! Resumption: every file is written atomically (temporary file, then rename), so a killed
+//! Resumption: every file is written atomically (temporary file, then rename; see
+//! `write_shared` for files several machines write), so a killed
 //! run leaves only whole files. A pose whose files all exist is not rendered again; a seed
 //! whose fragment exists is not even generated again. Determinism: nothing depends on the
 //! shard, the thread count or the order runs finish in, so N shard runs and a merge give the
@@ -45,7 +46,6 @@ use crate::camera_spec::{CameraSpec, ResolvedCamera, SpecError};
 use crate::config::GeneratorConfig;
 use crate::detection::{GroundTruthConfig, frame_ground_truth};
 use crate::evaluate::{EvalError, scenario_light_scales};
-use crate::export::write_atomic;
 use crate::generate::generate;
 use crate::library::Library;
 use crate::radiometry::capture;
@@ -375,6 +375,37 @@ pub fn seed_dir(seed: u64) -> String {
     format!("seed_{seed:010}")
 }
 
+/// Writes `bytes` to `path` atomically, safe when runs on other machines write the same file
+/// at the same moment (`dataset.json`, the merged COCO files). [`crate::export::write_atomic`] names its
+/// temporary file after the process id, and shard processes on different machines often share
+/// one (every container's first process is pid 1), so two of them could write the same
+/// temporary file on a shared volume. The temporary file here also carries the time and a
+/// per-process counter. Every writer of a shared file writes the same bytes, so whichever
+/// rename lands last, the file is whole and right.
+fn write_shared(path: &Path, bytes: &[u8]) -> Result<(), DatasetError> {
+    use std::io::Write;
+    use std::sync::atomic::{AtomicU64, Ordering};
+    static COUNTER: AtomicU64 = AtomicU64::new(0);
+    let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let nanos = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_nanos());
+    let host = std::env::var("HOSTNAME").unwrap_or_default();
+    let unique = crate::rng::fnv1a64(
+        format!("{host}/{}/{nanos}/{}", std::process::id(), COUNTER.fetch_add(1, Ordering::Relaxed)).as_bytes(),
+    );
+    let tmp = dir.join(format!(".{name}.tmp{unique:016x}"));
+    let result = (|| {
+        let mut file = std::fs::File::create(&tmp)?;
+        file.write_all(bytes)?;
+        std::fs::rename(&tmp, path)
+    })();
+    if let Err(source) = result {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(crate::export::WriteError { path: path.to_path_buf(), source }.into());
+    }
+    Ok(())
+}
+
 /// What a run reports as it goes (a progress bar, or nothing).
 pub trait Progress: Sync {
     /// `frames` more frames are planned.
@@ -459,7 +490,7 @@ impl Dataset {
         if !self.spec_path().exists() {
             std::fs::create_dir_all(&self.dir)
                 .map_err(|e| DatasetError::Read { path: self.dir.clone(), why: e.to_string() })?;
-            write_atomic(&self.spec_path(), self.spec.to_json().as_bytes())?;
+            write_shared(&self.spec_path(), self.spec.to_json().as_bytes())?;
         }
         Ok(())
     }
@@ -625,8 +656,7 @@ impl Dataset {
             std::fs::create_dir_all(dir)
                 .map_err(|e| DatasetError::Read { path: dir.to_path_buf(), why: e.to_string() })?;
         }
-        write_atomic(path, bytes)?;
-        Ok(())
+        write_shared(path, bytes)
     }
 
     /// Runs the seeds of `shard`, in order.
