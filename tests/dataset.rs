@@ -102,6 +102,25 @@ fn shards_and_merge_equal_one_run() {
 }
 
 #[test]
+fn concurrent_shards_equal_one_run() {
+    let a = tree(single());
+    let dir = scratch("concurrent");
+    let spawn = |shard: &str| {
+        let mut args = vec!["dataset", "--out", dir.to_str().unwrap(), "--shard", shard];
+        args.extend_from_slice(&ARGS);
+        Command::new(env!("CARGO_BIN_EXE_scene-gen")).args(&args).output()
+    };
+    // Both shards at once into one folder: both write dataset.json, one or both merge.
+    let (x, y) = std::thread::scope(|s| {
+        let x = s.spawn(|| spawn("0/2").expect("runs"));
+        let y = s.spawn(|| spawn("1/2").expect("runs"));
+        (x.join().unwrap(), y.join().unwrap())
+    });
+    assert!(x.status.success() && y.status.success(), "{}\n{}", text(&x), text(&y));
+    assert_eq!(tree(&dir), a, "concurrent shards differ from the single run");
+}
+
+#[test]
 fn rerun_skips_and_repairs() {
     let dir = scratch("rerun");
     let out = dataset(&dir, &["--lighting", "night"]);
