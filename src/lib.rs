@@ -45,6 +45,8 @@
 //!   parameters (`scene-gen calibrate`).
 //! * [`gap`]: the sim-vs-measured gap workflow (`scene-gen gap`): names the effects the sensor
 //!   model misses and adds them.
+//! * [`dataset`]: COCO datasets (images, depth, instance masks, RLE annotations) over seed
+//!   ranges, resumable and sharded across machines (`scene-gen dataset`).
 //!
 //! ```no_run
 //! use scene_gen::{config::GeneratorConfig, generate::generate, library::Library};
@@ -58,6 +60,7 @@ pub mod assets;
 pub mod calibration;
 pub mod camera_spec;
 pub mod config;
+pub mod dataset;
 pub mod decor;
 pub mod detection;
 pub mod evaluate;

@@ -1,6 +1,7 @@
 //! Command-line definitions and dispatch.
 
 mod calibrate;
+mod dataset;
 mod evaluate;
 mod gap;
 mod generate;
@@ -62,6 +63,8 @@ pub enum Command {
     Evaluate(evaluate::EvaluateArgs),
     /// The evaluator as a JSON-lines server (stdin requests, stdout scores) for any optimizer.
     Serve(serve::ServeArgs),
+    /// COCO dataset (images, depth, instance masks, annotations) over a seed range, shardable.
+    Dataset(dataset::DatasetArgs),
 }
 
 pub fn parse() -> Cli {
@@ -79,5 +82,6 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Some(Command::Render(args)) => render::run(&args),
         Some(Command::Evaluate(args)) => evaluate::run(&args),
         Some(Command::Serve(args)) => serve::run(&args),
+        Some(Command::Dataset(args)) => dataset::run(&args),
     }
 }

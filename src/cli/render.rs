@@ -35,6 +35,7 @@ use anyhow::{Context, anyhow};
 use clap::{Args, ValueEnum};
 use scene_gen::camera_spec::{CameraSpec, ResolvedCamera};
 use scene_gen::config::GeneratorConfig;
+use scene_gen::dataset::png::{capture_png, depth_png, instances_png};
 use scene_gen::evaluate::scenario_light_scales;
 use scene_gen::export::write_atomic;
 use scene_gen::generate::generate;
@@ -42,7 +43,7 @@ use scene_gen::library::Library;
 use scene_gen::lights::TARGET_PLANE_M;
 use scene_gen::manifest::Manifest;
 use scene_gen::radiometry::{Capture, capture};
-use scene_gen::render::{Frame, RenderSettings, Renderer};
+use scene_gen::render::{RenderSettings, Renderer};
 use scene_gen::scene::{LightGroup, MANIFEST_SCHEMA, Scene};
 use scene_gen::sensor::Catalog;
 use scene_gen::trajectory::{self, Pose, TrajectoryParams};
@@ -177,50 +178,6 @@ fn load_scene(path: &Path, min_room_m: f32) -> Result<Scene, CliError> {
         )));
     }
     Ok(scene)
-}
-
-fn png_gray16(width: u32, height: u32, values: Vec<u16>) -> Vec<u8> {
-    let img = image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::from_raw(width, height, values).expect("sizes match");
-    encode(&image::DynamicImage::ImageLuma16(img))
-}
-
-fn encode(img: &image::DynamicImage) -> Vec<u8> {
-    let mut out = std::io::Cursor::new(Vec::new());
-    img.write_to(&mut out, image::ImageFormat::Png).expect("PNG encoding into memory");
-    out.into_inner()
-}
-
-/// The PNG of a capture and its bit depth.
-fn capture_png(cap: &Capture) -> (Vec<u8>, u8) {
-    let (w, h) = (cap.width, cap.height);
-    if cap.channels == 3 {
-        let bytes: Vec<u8> = cap.dn.iter().map(|&v| v.min(255) as u8).collect();
-        let img = image::RgbImage::from_raw(w, h, bytes).expect("sizes match");
-        (encode(&image::DynamicImage::ImageRgb8(img)), 8)
-    } else if cap.bits <= 8 {
-        let bytes: Vec<u8> = cap.dn.iter().map(|&v| v.min(255) as u8).collect();
-        let img = image::GrayImage::from_raw(w, h, bytes).expect("sizes match");
-        (encode(&image::DynamicImage::ImageLuma8(img)), 8)
-    } else {
-        (png_gray16(w, h, cap.dn.clone()), 16)
-    }
-}
-
-fn depth_png(frame: &Frame) -> Vec<u8> {
-    let mm = frame
-        .depth_m
-        .iter()
-        .map(|&d| {
-            let v = (f64::from(d) * 1000.0).round();
-            if v.is_finite() && v > 0.0 && v <= 65535.0 { v as u16 } else { 0 }
-        })
-        .collect();
-    png_gray16(frame.width, frame.height, mm)
-}
-
-fn instances_png(frame: &Frame) -> Vec<u8> {
-    let ids = frame.instance_id.iter().map(|&i| u16::try_from(i).unwrap_or(u16::MAX)).collect();
-    png_gray16(frame.width, frame.height, ids)
 }
 
 pub fn run(args: &RenderArgs) -> Result<(), CliError> {
