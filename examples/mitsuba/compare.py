@@ -121,16 +121,18 @@ def pt(a):
 
 
 def timed(run, repeats):
-    """(first call s, [timed calls s]); `run` must evaluate and wait for its result."""
+    """(first call s, [timed calls s], CPU s / wall s of the timed calls); `run` must evaluate
+    and wait for its result. The CPU share checks the thread count Dr.Jit really used."""
     t0 = time.perf_counter()
     run()
     first = time.perf_counter() - t0
     times = []
+    cpu0 = time.process_time()
     for _ in range(repeats):
         t0 = time.perf_counter()
         run()
         times.append(time.perf_counter() - t0)
-    return first, times
+    return first, times, (time.process_time() - cpu0) / sum(times)
 
 
 def mitsuba_scene(ply, cam, spp, sampler="independent", integrator=None, light=True):
@@ -270,12 +272,13 @@ def main():
             }
             blocked_mi = int(np.asarray(shadow()).sum())
             rays = {"primary": n, "shadow": len(pts), "depth": n}
-            for case, (first, times) in mit.items():
+            for case, (first, times, cpu_share) in mit.items():
                 mine = ours["primary" if case == "depth" else case]
                 row = {
                     "res": res, "threads": threads, "case": case,
                     "scene_gen_s": mine["best_s"], "scene_gen_times_s": mine["times_s"],
                     "mitsuba_s": min(times), "mitsuba_times_s": times, "mitsuba_first_s": first,
+                    "mitsuba_cpu_per_wall": cpu_share,
                     "ratio": mine["best_s"] / min(times),
                 }
                 if case in rays:
