@@ -105,15 +105,35 @@ impl Setup {
     }
 }
 
-/// Wall times of `REPEATS` runs of `run`, and what the last run returned.
+/// CPU time of this process so far (all threads, user + system), seconds, from
+/// `/proc/self/stat` (fields 14 and 15, in clock ticks of 1/100 s: Linux's USER_HZ); 0 where
+/// that file cannot be read. On a machine shared with other work the wall time measures the
+/// scheduler as much as the code; the CPU time does not.
+fn process_cpu_s() -> f64 {
+    let Ok(stat) = std::fs::read_to_string("/proc/self/stat") else { return 0.0 };
+    // The command name (field 2) may hold spaces; the fields after it are plain numbers.
+    let fields: Vec<&str> = stat.rsplit_once(')').map_or(vec![], |(_, rest)| rest.split_whitespace().collect());
+    let ticks = |i: usize| fields.get(i).and_then(|v| v.parse::<f64>().ok()).unwrap_or(0.0);
+    (ticks(11) + ticks(12)) / 100.0
+}
+
+thread_local! {
+    /// CPU seconds per run of the last [`timed`] call on this thread.
+    static LAST_CPU_S: std::cell::Cell<f64> = const { std::cell::Cell::new(0.0) };
+}
+
+/// Wall times of `REPEATS` runs of `run`, and what the last run returned; the mean CPU time
+/// per run goes to [`LAST_CPU_S`].
 fn timed<T>(mut run: impl FnMut() -> T) -> (Vec<f64>, T) {
     let mut times = Vec::new();
     let mut last = None;
+    let cpu0 = process_cpu_s();
     for _ in 0..REPEATS {
         let start = Instant::now();
         last = Some(run());
         times.push(start.elapsed().as_secs_f64());
     }
+    LAST_CPU_S.with(|c| c.set((process_cpu_s() - cpu0) / REPEATS as f64));
     (times, last.expect("REPEATS > 0"))
 }
 
@@ -304,6 +324,7 @@ fn run_case(setup: &Setup, args: &Args, case: &str) -> BoxResult<()> {
             let (scale_s, render_s, capture_s) =
                 pool.install(|| frame_pair(setup, &renderer, args.width, args.height))?;
             let total: Vec<f64> = render_s.iter().zip(&capture_s).map(|(r, c)| r + c).collect();
+            LAST_CPU_S.with(|c| c.set(f64::NAN)); // not measured: printed as null
             (total, 0, serde_json::json!({ "light_scale_s": scale_s, "render_s": render_s, "capture_s": capture_s }))
         }
         _ => return Err(format!("--case {case}: expected primary, shadow, direct or pair").into()),
@@ -319,6 +340,7 @@ fn run_case(setup: &Setup, args: &Args, case: &str) -> BoxResult<()> {
         "times_s": times,
         "best_s": b,
         "mrays_per_s": rays as f64 / b / 1e6,
+        "cpu_s": LAST_CPU_S.with(std::cell::Cell::get),
         "hit_fraction": t.iter().filter(|t| t.is_finite()).count() as f64 / n,
     });
     if let (Some(o), Some(e)) = (out.as_object_mut(), extra.as_object()) {
