@@ -1,112 +1,412 @@
-//! Benchmark: ray throughput of the renderer's BVH on a room full of boxes (~97k triangles).
+//! Benchmark: the ray tracer on a generated house (seed 7), seen by an IMX174 camera (4 mm lens)
+//! at a pose of the agent's walk.
 //!
 //! ```text
-//! cargo run --release --example bench_render -- [--full]
+//! cargo run --release --example bench_render                 # the table below, best of 3
+//! cargo run --release --example bench_render -- --case primary --res 640x480 --threads 1 \
+//!     [--camera-out cam.json] [--depth-out depth.f32]          # one case, one JSON line
 //! ```
 //!
-//! For 640x480 and 1936x1216 on rayon pools of 1 and 2 threads, prints million rays per second
-//! for primary rays (closest hit through every pixel centre) and shadow rays (any hit, from
-//! every primary hit towards the ceiling light), each the best of three runs. With `--full`
-//! it also times a complete 640x480 frame at the standard settings. A harness of its own
-//! rather than criterion: the figures of interest are rays per second at fixed sizes.
+//! Without `--case` it prints, for 640x480 and 1936x1216 on rayon pools of 1 and 2 threads, the
+//! million rays per second of primary rays (closest hit through every pixel centre) and shadow
+//! rays (any hit, from every primary hit to the night ceiling light nearest the camera), then
+//! the wall time of one day + night frame pair at 1280x960 (`standard` settings, one trace for
+//! both, both captures through the sensor model to DN).
+//!
+//! `--case` runs one workload and prints one JSON line with its times; examples/mitsuba/compare.py
+//! runs it interleaved with Mitsuba 3 on the same view:
+//! * `primary`, `shadow`: the ray batches above (`rays` = rays traced);
+//! * `direct`: a real render (centre ray for labels + `--spp` jittered camera rays per pixel, one
+//!   shadow ray per hit, textured Lambertian shading) of the house lit by that one point light;
+//!   `--spp` must be a square;
+//! * `pair`: the day + night pair at `--res` (light scaling measured once, outside the time).
+//!
+//! Every resolution keeps the horizontal field of view of the full 1936 px sensor (the pixel
+//! pitch is scaled), so all sizes show the same scene. `--camera-out` writes the camera (pose,
+//! basis, fields of view), the light and the scene's triangle count as JSON; `--depth-out` the
+//! ray distance of each pixel-centre ray (little-endian f32, row-major, +inf for a miss). A
+//! harness of its own rather than criterion: the figures of interest are rays per second at
+//! fixed sizes, and the comparison needs them per run.
 
+use std::path::PathBuf;
 use std::time::Instant;
 
 use glam::Vec3;
-use scene_gen::render::test_util::{camera, room_of_boxes};
+use rayon::prelude::*;
+use scene_gen::camera_spec::{CameraSpec, ResolvedCamera};
+use scene_gen::config::GeneratorConfig;
+use scene_gen::evaluate::scenario_light_scales;
+use scene_gen::generate::generate;
+use scene_gen::library::Library;
+use scene_gen::radiometry::capture;
 use scene_gen::render::{Camera, RenderSettings, Renderer};
-use scene_gen::scene::LightKind;
+use scene_gen::scene::{Light, LightGroup, LightKind, Scene};
+use scene_gen::sensor::Catalog;
+use scene_gen::trajectory::{self, TrajectoryParams};
 
-fn best_of_three(mut run: impl FnMut() -> usize) -> (f64, usize) {
-    let mut best = f64::INFINITY;
-    let mut rays = 0;
-    for _ in 0..3 {
-        let start = Instant::now();
-        rays = run();
-        best = best.min(start.elapsed().as_secs_f64());
-    }
-    (best, rays)
+type BoxResult<T> = Result<T, Box<dyn std::error::Error + Send + Sync>>;
+
+/// The house: seed 7 of the default envelope, the scene `scene-gen --seed 7` writes.
+const SEED: u64 = 7;
+/// The sensor of the issue's 1936x1216 figures (Sony IMX174, 5.86 um pixels).
+const SENSOR: &str = "IMX174";
+/// Pose of the walk the camera stands at: inside the first room, looking along the walk
+/// (chosen so most pixels see geometry at several depths, not a wall at arm's length).
+const POSE_INDEX: usize = 6;
+const REPEATS: usize = 3;
+
+struct Setup {
+    scene: Scene,
+    resolved: ResolvedCamera,
+    pose: trajectory::Pose,
+    light: Light,
 }
 
-fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let full = std::env::args().any(|a| a == "--full");
-    let size = Vec3::new(12.0, 10.0, 2.8);
-    let scene = room_of_boxes(size, 90);
-    let start = Instant::now();
-    let renderer = Renderer::new(&scene, RenderSettings::standard());
-    let accel = renderer.accel();
-    println!("scene: {} triangles, BVH built in {:.0} ms", accel.triangle_count(), start.elapsed().as_secs_f64() * 1e3);
-    let light = scene.lights.iter().find(|l| l.kind == LightKind::Point).and_then(|l| l.position).unwrap_or(size);
-
-    println!("| resolution | threads | primary Mrays/s | shadow Mrays/s |");
-    println!("|---|---|---|---|");
-    for (w, h) in [(640u32, 480u32), (1936, 1216)] {
-        let cam =
-            Camera { pixel_pitch_um: 5.86 * 1936.0 / w as f32, ..camera(w, h, Vec3::new(0.3, 0.3, 1.5), 35.0, -15.0) };
-        let directions: Vec<Vec3> = (0..h)
-            .flat_map(|y| (0..w).map(move |x| (x, y)))
-            .map(|(x, y)| cam.ray_direction(x as f32 + 0.5, y as f32 + 0.5))
-            .collect();
-        let points: Vec<Vec3> = directions
+impl Setup {
+    fn new() -> BoxResult<Setup> {
+        let scene = generate(&GeneratorConfig { seed: SEED, ..GeneratorConfig::default() }, &Library::embedded()?)?;
+        let resolved = CameraSpec::new(SENSOR).resolve(&Catalog::embedded())?;
+        let walk =
+            trajectory::plan(&scene, &TrajectoryParams { height_m: resolved.spec.height_m, ..Default::default() })?;
+        let pose = walk.poses[POSE_INDEX.min(walk.poses.len() - 1)];
+        let eye = resolved.camera_at(&pose).position;
+        let light = scene
+            .lights
             .iter()
-            .filter_map(|d| accel.closest_hit(cam.position, *d, f32::INFINITY).map(|hit| cam.position + *d * hit.t))
-            .collect();
-        for threads in [1, 2] {
-            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build()?;
-            use rayon::prelude::*;
-            let (primary_s, primary_rays) = best_of_three(|| {
-                pool.install(|| {
-                    let hits = directions
-                        .par_chunks(1024)
-                        .map(|c| {
-                            c.iter().filter(|d| accel.closest_hit(cam.position, **d, f32::INFINITY).is_some()).count()
-                        })
-                        .sum::<usize>();
-                    std::hint::black_box(hits);
-                });
-                directions.len()
-            });
-            let (shadow_s, shadow_rays) = best_of_three(|| {
-                pool.install(|| {
-                    let blocked = points
-                        .par_chunks(1024)
-                        .map(|c| {
-                            c.iter()
-                                .filter(|p| {
-                                    let to = light - **p;
-                                    let dist = to.length();
-                                    // Start a little towards the light, as the shader does.
-                                    let dir = to / dist;
-                                    accel.occluded(**p + dir * 1e-3, dir, dist - 2e-3)
-                                })
-                                .count()
-                        })
-                        .sum::<usize>();
-                    std::hint::black_box(blocked);
-                });
-                points.len()
-            });
-            println!(
-                "| {w}x{h} | {threads} | {:.2} | {:.2} |",
-                primary_rays as f64 / primary_s / 1e6,
-                shadow_rays as f64 / shadow_s / 1e6
-            );
+            .filter(|l| l.kind == LightKind::Point && l.group == LightGroup::Night)
+            .filter_map(|l| l.position.map(|p| (p.distance(eye), l)))
+            .min_by(|a, b| a.0.total_cmp(&b.0))
+            .map(|(_, l)| l.clone())
+            .ok_or("the house has no night point light")?;
+        Ok(Setup { scene, resolved, pose, light })
+    }
+
+    /// The camera at `w x h`, keeping the full sensor's horizontal field of view.
+    fn camera(&self, w: u32, h: u32) -> Camera {
+        let full = self.resolved.camera_at(&self.pose);
+        let pitch_um = full.pixel_pitch_um * full.width_px as f32 / w as f32;
+        Camera { width_px: w, height_px: h, pixel_pitch_um: pitch_um, ..full }
+    }
+
+    /// The resolved camera binned to `w x h` (for the sensor model of a capture).
+    fn resolved_at(&self, w: u32, h: u32) -> ResolvedCamera {
+        let bin = f64::from(self.resolved.width_px) / f64::from(w);
+        ResolvedCamera {
+            width_px: w,
+            height_px: h,
+            bin_factor: bin,
+            pixel_pitch_um: self.resolved.pixel_pitch_um * bin as f32,
+            ..self.resolved.clone()
         }
     }
 
-    if full {
-        let cam =
-            Camera { pixel_pitch_um: 5.86 * 1936.0 / 640.0, ..camera(640, 480, Vec3::new(0.3, 0.3, 1.5), 35.0, -15.0) };
+    fn light_position(&self) -> Vec3 {
+        self.light.position.expect("filtered on position")
+    }
+}
+
+/// CPU time of this process so far (all threads, user + system), seconds, from
+/// `/proc/self/stat` (fields 14 and 15, in clock ticks of 1/100 s: Linux's USER_HZ); 0 where
+/// that file cannot be read. On a machine shared with other work the wall time measures the
+/// scheduler as much as the code; the CPU time does not.
+fn process_cpu_s() -> f64 {
+    let Ok(stat) = std::fs::read_to_string("/proc/self/stat") else { return 0.0 };
+    // The command name (field 2) may hold spaces; the fields after it are plain numbers.
+    let fields: Vec<&str> = stat.rsplit_once(')').map_or(vec![], |(_, rest)| rest.split_whitespace().collect());
+    let ticks = |i: usize| fields.get(i).and_then(|v| v.parse::<f64>().ok()).unwrap_or(0.0);
+    (ticks(11) + ticks(12)) / 100.0
+}
+
+thread_local! {
+    /// CPU seconds per run of the last [`timed`] call on this thread.
+    static LAST_CPU_S: std::cell::Cell<f64> = const { std::cell::Cell::new(0.0) };
+}
+
+/// Wall times of `REPEATS` runs of `run`, and what the last run returned; the mean CPU time
+/// per run goes to [`LAST_CPU_S`].
+fn timed<T>(mut run: impl FnMut() -> T) -> (Vec<f64>, T) {
+    let mut times = Vec::new();
+    let mut last = None;
+    let cpu0 = process_cpu_s();
+    for _ in 0..REPEATS {
+        let start = Instant::now();
+        last = Some(run());
+        times.push(start.elapsed().as_secs_f64());
+    }
+    LAST_CPU_S.with(|c| c.set((process_cpu_s() - cpu0) / REPEATS as f64));
+    (times, last.expect("REPEATS > 0"))
+}
+
+fn best(times: &[f64]) -> f64 {
+    times.iter().copied().fold(f64::INFINITY, f64::min)
+}
+
+fn pixel_centre_directions(camera: &Camera) -> Vec<Vec3> {
+    let basis = camera.basis();
+    (0..camera.height_px)
+        .flat_map(|y| (0..camera.width_px).map(move |x| (x, y)))
+        .map(|(x, y)| camera.ray_direction_in(basis, x as f32 + 0.5, y as f32 + 0.5))
+        .collect()
+}
+
+/// Ray distance of every pixel-centre ray (+inf for a miss), on the current pool.
+fn primary_pass(renderer: &Renderer<'_>, origin: Vec3, directions: &[Vec3]) -> Vec<f32> {
+    let accel = renderer.accel();
+    directions
+        .par_chunks(1024)
+        .flat_map_iter(|c| {
+            c.iter().map(|d| accel.closest_hit(origin, *d, f32::INFINITY).map_or(f32::INFINITY, |h| h.t))
+        })
+        .collect()
+}
+
+/// Number of the `points` from which `light` is blocked, on the current pool.
+fn shadow_pass(renderer: &Renderer<'_>, points: &[Vec3], light: Vec3) -> usize {
+    let accel = renderer.accel();
+    points
+        .par_chunks(1024)
+        .map(|c| {
+            c.iter()
+                .filter(|p| {
+                    let to = light - **p;
+                    let dist = to.length();
+                    // Start a little towards the light, as the shader does.
+                    let dir = to / dist;
+                    accel.occluded(**p + dir * 1e-3, dir, dist - 2e-3)
+                })
+                .count()
+        })
+        .sum()
+}
+
+fn hit_points(origin: Vec3, directions: &[Vec3], t: &[f32]) -> Vec<Vec3> {
+    directions.iter().zip(t).filter(|(_, t)| t.is_finite()).map(|(d, t)| origin + *d * *t).collect()
+}
+
+/// Wall time of one day + night pair: one render, then per group the scaled radiance through
+/// the sensor model to DN. Returns (light scaling s, render s, capture s of both groups, CPU s
+/// of render and captures). Timed once: a pair takes seconds, and three would take minutes on
+/// the loaded machine.
+fn frame_pair(setup: &Setup, renderer: &Renderer<'_>, w: u32, h: u32) -> BoxResult<(f64, f64, f64, f64)> {
+    let camera = setup.camera(w, h);
+    let resolved = setup.resolved_at(w, h);
+    let start = Instant::now();
+    let scales = scenario_light_scales(renderer, SEED, &[LightGroup::Day, LightGroup::Night])?;
+    let scale_s = start.elapsed().as_secs_f64();
+    let cpu0 = process_cpu_s();
+    let start = Instant::now();
+    let frame = renderer.render(&camera)?;
+    let render_s = start.elapsed().as_secs_f64();
+    let start = Instant::now();
+    for &(group, _, scale, _) in &scales {
+        let (radiance, gain_db) = match group {
+            LightGroup::Day => (frame.mix(scale, 0.0), resolved.spec.gain_day_db),
+            LightGroup::Night => (frame.mix(0.0, scale), resolved.spec.gain_night_db),
+        };
+        let cap = capture(&resolved, &camera, &radiance, gain_db, SEED, 1);
+        std::hint::black_box(cap.mean_variance());
+    }
+    let capture_s = start.elapsed().as_secs_f64();
+    Ok((scale_s, render_s, capture_s, process_cpu_s() - cpu0))
+}
+
+struct Args {
+    case: Option<String>,
+    width: u32,
+    height: u32,
+    threads: usize,
+    spp: u32,
+    camera_out: Option<PathBuf>,
+    depth_out: Option<PathBuf>,
+}
+
+fn parse_args() -> BoxResult<Args> {
+    let mut args = Args { case: None, width: 640, height: 480, threads: 1, spp: 1, camera_out: None, depth_out: None };
+    let mut it = std::env::args().skip(1);
+    while let Some(flag) = it.next() {
+        let mut value = || it.next().ok_or_else(|| format!("{flag} needs a value"));
+        match flag.as_str() {
+            "--case" => args.case = Some(value()?),
+            "--res" => {
+                let v = value()?;
+                let (w, h) = v.split_once('x').ok_or_else(|| format!("--res {v}: expected WxH"))?;
+                (args.width, args.height) = (w.parse()?, h.parse()?);
+            }
+            "--threads" => args.threads = value()?.parse()?,
+            "--spp" => args.spp = value()?.parse()?,
+            "--camera-out" => args.camera_out = Some(value()?.into()),
+            "--depth-out" => args.depth_out = Some(value()?.into()),
+            _ => return Err(format!("unknown argument {flag}").into()),
+        }
+    }
+    Ok(args)
+}
+
+fn camera_json(setup: &Setup, camera: &Camera, triangles: usize) -> serde_json::Value {
+    let (forward, right, up) = camera.basis();
+    let light = setup.light_position();
+    serde_json::json!({
+        "seed": SEED,
+        "sensor": SENSOR,
+        "pose_index": POSE_INDEX,
+        "width": camera.width_px,
+        "height": camera.height_px,
+        "pixel_pitch_um": camera.pixel_pitch_um,
+        "focal_mm": camera.focal_mm,
+        "hfov_deg": camera.hfov_deg(),
+        "vfov_deg": camera.vfov_deg(),
+        "position": camera.position.to_array(),
+        "yaw_deg": camera.yaw_deg,
+        "pitch_deg": camera.pitch_deg,
+        "forward": forward.to_array(),
+        "right": right.to_array(),
+        "up": up.to_array(),
+        "light_position": light.to_array(),
+        "light_intensity_cd": setup.light.intensity,
+        "triangles": triangles,
+    })
+}
+
+fn run_case(setup: &Setup, args: &Args, case: &str) -> BoxResult<()> {
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(args.threads).build()?;
+    let camera = setup.camera(args.width, args.height);
+    let n = f64::from(args.width) * f64::from(args.height);
+    let base = RenderSettings::standard();
+    let renderer = Renderer::new(&setup.scene, base);
+    if let Some(path) = &args.camera_out {
+        std::fs::write(
+            path,
+            serde_json::to_string_pretty(&camera_json(setup, &camera, renderer.accel().triangle_count()))?,
+        )?;
+    }
+    let directions = pixel_centre_directions(&camera);
+    let origin = camera.position;
+    let t = primary_pass(&renderer, origin, &directions);
+    if let Some(path) = &args.depth_out {
+        std::fs::write(path, t.iter().flat_map(|v| v.to_le_bytes()).collect::<Vec<u8>>())?;
+    }
+    let (times, rays, extra) = match case {
+        "primary" => {
+            let (times, _) =
+                timed(|| pool.install(|| std::hint::black_box(primary_pass(&renderer, origin, &directions))));
+            (times, directions.len(), serde_json::json!({}))
+        }
+        "shadow" => {
+            let points = hit_points(origin, &directions, &t);
+            let light = setup.light_position();
+            let (times, blocked) = timed(|| pool.install(|| shadow_pass(&renderer, &points, light)));
+            (times, points.len(), serde_json::json!({ "blocked": blocked }))
+        }
+        "direct" => {
+            let axis = f64::from(args.spp).sqrt().round() as u32;
+            if axis * axis != args.spp || axis == 0 {
+                return Err(format!("--spp {}: must be a square (1, 4, 9, ...)", args.spp).into());
+            }
+            let mut one_light = setup.scene.clone();
+            one_light.lights = vec![setup.light.clone()];
+            let settings = RenderSettings {
+                samples_per_axis: axis,
+                rect_samples_per_axis: 1,
+                indirect_rays: 0,
+                specular: false,
+                light_cull: 0.0,
+                ..RenderSettings::preview()
+            };
+            let direct = Renderer::new(&one_light, settings);
+            let (times, frame) = timed(|| pool.install(|| direct.render(&camera)));
+            let mean = frame?.night_nit.iter().map(|c| f64::from(c[1])).sum::<f64>() / n;
+            // Rays per pixel: the label ray, spp camera rays, a shadow ray per camera-ray hit.
+            let hits = t.iter().filter(|t| t.is_finite()).count() as f64 / n;
+            let rays = n * (1.0 + f64::from(args.spp) * (1.0 + hits));
+            (times, rays as usize, serde_json::json!({ "spp": args.spp, "mean_green_nit": mean }))
+        }
+        "pair" => {
+            let (scale_s, render_s, capture_s, cpu_s) =
+                pool.install(|| frame_pair(setup, &renderer, args.width, args.height))?;
+            LAST_CPU_S.with(|c| c.set(cpu_s));
+            (
+                vec![render_s + capture_s],
+                0,
+                serde_json::json!({ "light_scale_s": scale_s, "render_s": render_s, "capture_s": capture_s }),
+            )
+        }
+        _ => return Err(format!("--case {case}: expected primary, shadow, direct or pair").into()),
+    };
+    let b = best(&times);
+    let mut out = serde_json::json!({
+        "renderer": "scene-gen",
+        "case": case,
+        "width": args.width,
+        "height": args.height,
+        "threads": args.threads,
+        "rays": rays,
+        "times_s": times,
+        "best_s": b,
+        "mrays_per_s": rays as f64 / b / 1e6,
+        "cpu_s": LAST_CPU_S.with(std::cell::Cell::get),
+        "hit_fraction": t.iter().filter(|t| t.is_finite()).count() as f64 / n,
+    });
+    if let (Some(o), Some(e)) = (out.as_object_mut(), extra.as_object()) {
+        o.extend(e.clone());
+    }
+    println!("{out}");
+    Ok(())
+}
+
+fn main() -> BoxResult<()> {
+    let args = parse_args()?;
+    let start = Instant::now();
+    let setup = Setup::new()?;
+    let generate_s = start.elapsed().as_secs_f64();
+    if let Some(case) = &args.case {
+        return run_case(&setup, &args, case);
+    }
+    let start = Instant::now();
+    let renderer = Renderer::new(&setup.scene, RenderSettings::standard());
+    let accel = renderer.accel();
+    println!(
+        "house seed {SEED}: {} triangles, generated in {:.0} ms, BVH built in {:.0} ms; {SENSOR} at pose {POSE_INDEX} {:?}",
+        accel.triangle_count(),
+        generate_s * 1e3,
+        start.elapsed().as_secs_f64() * 1e3,
+        setup.pose.position
+    );
+    let light = setup.light_position();
+    println!(
+        "| resolution | threads | primary Mrays/s (wall) | primary Mrays per CPU s | shadow Mrays/s (wall) | shadow Mrays per CPU s | hit fraction |"
+    );
+    println!("|---|---|---|---|---|---|---|");
+    for (w, h) in [(640u32, 480u32), (1936, 1216)] {
+        let camera = setup.camera(w, h);
+        let directions = pixel_centre_directions(&camera);
+        let t = primary_pass(&renderer, camera.position, &directions);
+        let points = hit_points(camera.position, &directions, &t);
         for threads in [1, 2] {
             let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build()?;
-            let start = Instant::now();
-            let frame = pool.install(|| renderer.render(&cam))?;
+            let (primary, _) =
+                timed(|| pool.install(|| std::hint::black_box(primary_pass(&renderer, camera.position, &directions))));
+            let primary_cpu = LAST_CPU_S.with(std::cell::Cell::get);
+            let (shadow, _) = timed(|| pool.install(|| shadow_pass(&renderer, &points, light)));
+            let shadow_cpu = LAST_CPU_S.with(std::cell::Cell::get);
+            let (np, ns) = (directions.len() as f64, points.len() as f64);
             println!(
-                "full 640x480 frame, standard settings, {threads} thread(s): {:.2} s ({} px)",
-                start.elapsed().as_secs_f64(),
-                frame.depth_m.len()
+                "| {w}x{h} | {threads} | {:.2} | {:.2} | {:.2} | {:.2} | {:.3} |",
+                np / best(&primary) / 1e6,
+                np / primary_cpu / 1e6,
+                ns / best(&shadow) / 1e6,
+                ns / shadow_cpu / 1e6,
+                ns / np
             );
         }
+    }
+    for threads in [1, 2] {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build()?;
+        let (scale_s, render_s, capture_s, cpu_s) = pool.install(|| frame_pair(&setup, &renderer, 1280, 960))?;
+        println!(
+            "day + night pair 1280x960, standard, {threads} thread(s): {:.2} s wall, {cpu_s:.2} s CPU \
+             (render {render_s:.2} s + capture {capture_s:.3} s); light scaling once per scene {scale_s:.2} s",
+            render_s + capture_s
+        );
     }
     Ok(())
 }
