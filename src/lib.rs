@@ -69,6 +69,7 @@ pub mod library;
 pub mod lights;
 pub mod manifest;
 pub mod materials;
+pub mod optics;
 pub mod orb;
 pub mod placement;
 pub mod radiometry;
