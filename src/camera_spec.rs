@@ -8,6 +8,13 @@
 //! focal_mm = 4.0
 //! pitch_deg = -10.0
 //! noise = "emva"        # "emva" | "affine" | "off"
+//! # Optics (src/optics.rs), each switchable:
+//! vignetting = true      # cos^4 fall-off
+//! diffraction = true     # Airy blur at 550 nm (Gaussian sigma 0.42 lambda N); no-op when sub-pixel
+//! defocus = false        # thin-lens circle of confusion from the depth buffer
+//! focus_m = 1.5          # focus distance (> focal length); omitted: hyperfocal, 2-pixel CoC
+//! motion_blur = false    # camera translation during the exposure
+//! motion_speed_m_s = 0.5 # omitted: the walk's speed, as the caller passes it
 //! ```
 //!
 //! [`CameraSpec::resolve`] looks the sensor up in a [`Catalog`] and gives a [`ResolvedCamera`]:

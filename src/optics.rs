@@ -194,6 +194,9 @@ fn phi(x: f64) -> f64 {
 
 /// Half-sample symmetric reflection of index `i` into `0..n`.
 fn reflect(i: i64, n: usize) -> usize {
+    if (0..n as i64).contains(&i) {
+        return i as usize;
+    }
     let n = n as i64;
     let m = i.rem_euclid(2 * n);
     (if m < n { m } else { 2 * n - 1 - m }) as usize
@@ -312,7 +315,8 @@ impl SpanAccumulator {
 
 /// Spatially varying pillbox (uniform disc) blur of a `w x h` image in place: each source pixel
 /// spreads its value evenly over the disc of diameter `diameter_px[i]` centred on it, with
-/// area-weighted coverage at the disc's edge, borders mirrored. The sum is conserved.
+/// area-weighted coverage at the disc's edge (each pixel row gets the disc's exact area in it,
+/// as a span of the row's mean chord), borders mirrored. The sum is conserved.
 /// Diameters below [`DEFOCUS_SKIP_DIAMETER_PX`] keep the light in the pixel.
 ///
 /// # Panics
@@ -334,20 +338,33 @@ pub fn pillbox_blur(image: &mut [f32], w: usize, h: usize, diameter_px: &[f32]) 
         }
         let r = 0.5 * d.min(DEFOCUS_MAX_DIAMETER_PX);
         // Sub-rows per pixel row: small discs need several for an even, round coverage.
-        let sub = if r < 4.0 { 4 } else { 1 };
+        let sub = if r < 1.5 {
+            4
+        } else if r < 4.0 {
+            2
+        } else {
+            1
+        };
         chords.clear();
         let rows = r.ceil() as i64;
         let mut area = 0.0;
+        // Area under the half-chord sqrt(r^2 - v^2) from 0 to v (|v| <= r).
+        let half_area = |v: f64| {
+            let v = v.clamp(-r, r);
+            0.5 * (v * (r * r - v * v).max(0.0).sqrt() + r * r * (v / r).asin())
+        };
+        let band = 1.0 / f64::from(sub);
         for dy in -rows..=rows {
             for s in 0..sub {
-                let v_off = dy as f64 - 0.5 + (f64::from(s) + 0.5) / f64::from(sub);
-                if v_off.abs() >= r {
+                let v0 = dy as f64 - 0.5 + f64::from(s) * band;
+                // The disc's exact area in this band, as one span of the band's mean width.
+                let a = 2.0 * (half_area(v0 + band) - half_area(v0));
+                if a <= 0.0 {
                     continue;
                 }
-                let half = (r * r - v_off * v_off).sqrt();
-                let weight = 1.0 / f64::from(sub);
-                chords.push((dy, half, weight));
-                area += 2.0 * half * weight;
+                let half = 0.5 * a / band;
+                chords.push((dy, half, band));
+                area += a;
             }
         }
         let scale = f64::from(v) / area;
@@ -364,6 +381,14 @@ fn splat(out: &mut [f64], w: usize, h: usize, px: f64, py: f64, v: f64) {
     let (x0, y0) = (px.floor(), py.floor());
     let (tx, ty) = (px - x0, py - y0);
     let (x0, y0) = (x0 as i64, y0 as i64);
+    if x0 >= 0 && y0 >= 0 && x0 + 1 < w as i64 && y0 + 1 < h as i64 {
+        let i = y0 as usize * w + x0 as usize;
+        out[i] += v * (1.0 - tx) * (1.0 - ty);
+        out[i + 1] += v * tx * (1.0 - ty);
+        out[i + w] += v * (1.0 - tx) * ty;
+        out[i + w + 1] += v * tx * ty;
+        return;
+    }
     for (dy, wy) in [(0, 1.0 - ty), (1, ty)] {
         if wy == 0.0 {
             continue;

@@ -125,6 +125,34 @@ fn defocus_in_focus_plane_is_sharp_and_off_plane_gets_the_thin_lens_coc() {
     }
 }
 
+/// The disc is round: a horizontal edge (spread across rows, where small discs are sampled by
+/// sub-rows) blurs as much as a vertical one.
+#[test]
+fn defocus_disc_is_isotropic() {
+    let (w, h) = (48, 160);
+    let (r, cam) = camera(w as u32, h as u32, 5.86, |s| {
+        s.defocus = true;
+        s.focus_m = Some(1.0);
+        s.focal_mm = 8.0;
+    });
+    for z in [0.5f32, 0.75, 4.0] {
+        let depth = vec![z; w * h];
+        let mut img: Vec<f32> = (0..w * h).map(|i| if i / w >= h / 2 { 100.0 } else { 0.0 }).collect();
+        optics::apply(&r, &cam, &mut img, Some(&OpticsInput { depth_m: &depth, velocity_m_s: Vec3::ZERO }));
+        // Column 24, read as a row of the transposed image.
+        let col: Vec<f32> = (0..h).map(|y| img[y * w + w / 2]).collect();
+        let s = lsf_std(&col, h, 0);
+        let vertical = 4.0 * (s * s - 1.0 / 12.0).sqrt();
+        let (img_v, c) = defocused_edge(z, 1.0);
+        let sv = lsf_std(&img_v, 160, 24);
+        let horizontal = 4.0 * (sv * sv - 1.0 / 12.0).sqrt();
+        eprintln!(
+            "defocus z {z} m: CoC across rows {vertical:.3} px, across columns {horizontal:.3}, thin lens {c:.3}"
+        );
+        assert!((vertical / horizontal - 1.0).abs() < 0.05, "z {z}: {vertical} vs {horizontal}");
+    }
+}
+
 #[test]
 fn defocus_default_focus_is_hyperfocal() {
     let (r, _) = camera(64, 48, 5.86, |s| s.defocus = true);
