@@ -29,7 +29,7 @@
 //! (about 16 % of the energy, spread far and thin). The kernel is the Gaussian integrated over
 //! each pixel (separable, `erf` differences), cut at 4 sigma and renormalised. When sigma is
 //! below [`DIFFRACTION_SKIP_SIGMA_PX`] (under 0.1 % of the light would leave the pixel in
-//! either axis) the effect is the identity: at f/2 that is every pixel above 1.5 um, so on the
+//! either axis) the effect is the identity: at f/2 that is every pixel above 3.1 um, so on the
 //! catalog's sensors diffraction only shows for small pixels or slow lenses.
 //!
 //! Default **on**: it is physical, it costs nothing when sub-pixel, and it is what makes a slow
@@ -313,6 +313,42 @@ impl SpanAccumulator {
     }
 }
 
+/// The horizontal spans of a disc of radius `r` pixels centred on a pixel centre, as
+/// `(row offset, half width, weight)`, and the disc's area: each pixel row is cut into bands
+/// (several for small discs, for a round shape) and each band gets the disc's exact area in it
+/// as one span of the band's mean width.
+fn disc_chords(r: f64, chords: &mut Vec<(i64, f64, f64)>) -> f64 {
+    let sub: u32 = if r < 1.5 {
+        4
+    } else if r < 4.0 {
+        2
+    } else {
+        1
+    };
+    chords.clear();
+    let rows = r.ceil() as i64;
+    // Area under the half-chord sqrt(r^2 - v^2) from 0 to v (clamped to the disc).
+    let half_area = |v: f64| {
+        let v = v.clamp(-r, r);
+        0.5 * (v * (r * r - v * v).max(0.0).sqrt() + r * r * (v / r).asin())
+    };
+    let band = 1.0 / f64::from(sub);
+    let mut area = 0.0;
+    let mut below = half_area(-(rows as f64) - 0.5);
+    for dy in -rows..=rows {
+        for s in 0..sub {
+            let above = half_area(dy as f64 - 0.5 + f64::from(s + 1) * band);
+            let a = 2.0 * (above - below);
+            below = above;
+            if a > 0.0 {
+                chords.push((dy, 0.5 * a / band, band));
+                area += a;
+            }
+        }
+    }
+    area
+}
+
 /// Spatially varying pillbox (uniform disc) blur of a `w x h` image in place: each source pixel
 /// spreads its value evenly over the disc of diameter `diameter_px[i]` centred on it, with
 /// area-weighted coverage at the disc's edge (each pixel row gets the disc's exact area in it,
@@ -325,7 +361,9 @@ pub fn pillbox_blur(image: &mut [f32], w: usize, h: usize, diameter_px: &[f32]) 
     assert_eq!(image.len(), w * h, "image must be w x h");
     assert_eq!(diameter_px.len(), w * h, "diameters must be w x h");
     let mut acc = SpanAccumulator::new(w, h);
+    // The disc of the previous pixel: depth is smooth, so neighbours mostly share it.
     let mut chords: Vec<(i64, f64, f64)> = Vec::new();
+    let (mut chords_r, mut area) = (f64::NAN, 0.0);
     for (i, (&v, &d)) in image.iter().zip(diameter_px).enumerate() {
         let (x, y) = ((i % w) as f64, (i / w) as i64);
         let d = f64::from(d);
@@ -336,36 +374,11 @@ pub fn pillbox_blur(image: &mut [f32], w: usize, h: usize, diameter_px: &[f32]) 
         if v == 0.0 {
             continue;
         }
-        let r = 0.5 * d.min(DEFOCUS_MAX_DIAMETER_PX);
-        // Sub-rows per pixel row: small discs need several for an even, round coverage.
-        let sub = if r < 1.5 {
-            4
-        } else if r < 4.0 {
-            2
-        } else {
-            1
-        };
-        chords.clear();
-        let rows = r.ceil() as i64;
-        let mut area = 0.0;
-        // Area under the half-chord sqrt(r^2 - v^2) from 0 to v (|v| <= r).
-        let half_area = |v: f64| {
-            let v = v.clamp(-r, r);
-            0.5 * (v * (r * r - v * v).max(0.0).sqrt() + r * r * (v / r).asin())
-        };
-        let band = 1.0 / f64::from(sub);
-        for dy in -rows..=rows {
-            for s in 0..sub {
-                let v0 = dy as f64 - 0.5 + f64::from(s) * band;
-                // The disc's exact area in this band, as one span of the band's mean width.
-                let a = 2.0 * (half_area(v0 + band) - half_area(v0));
-                if a <= 0.0 {
-                    continue;
-                }
-                let half = 0.5 * a / band;
-                chords.push((dy, half, band));
-                area += a;
-            }
+        // Radius quantised to 1/256 px (far below anything visible) so discs can be reused.
+        let r = (0.5 * d.min(DEFOCUS_MAX_DIAMETER_PX) * 256.0).round() / 256.0;
+        if r != chords_r {
+            area = disc_chords(r, &mut chords);
+            chords_r = r;
         }
         let scale = f64::from(v) / area;
         for &(dy, half, weight) in &chords {
