@@ -380,3 +380,38 @@ fn render_defocus_softens_and_keeps_the_mean() {
     let (gs, gb) = (gradient_energy(&sharp, 160), gradient_energy(&soft, 160));
     assert!(gb < 0.5 * gs, "defocus must soften: gradient energy {gb} vs {gs}");
 }
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(64))]
+
+    /// Every effect, on any image, depth and motion, hands out exactly the light it receives
+    /// (mirrored borders) and makes no negative irradiance.
+    #[test]
+    fn blurs_conserve_energy_for_any_input(
+        w in 3usize..40,
+        h in 3usize..30,
+        seed in 0u64..1_000_000,
+        sigma in 0.0f64..4.0,
+        t in proptest::array::uniform3(-0.3f64..0.3),
+    ) {
+        let mut rng = seed;
+        let mut next = move || {
+            rng = rng.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+            (rng >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let img: Vec<f32> = (0..w * h).map(|_| 1000.0 * next()).collect();
+        let diam: Vec<f32> = (0..w * h).map(|_| 30.0 * next()).collect();
+        let depth: Vec<f32> = (0..w * h).map(|_| 0.2 + 5.0 * next()).collect();
+        let before = total(&img);
+        let mut a = img.clone();
+        optics::pillbox_blur(&mut a, w, h, &diam);
+        let mut b = img.clone();
+        optics::gaussian_blur(&mut b, w, h, sigma);
+        let mut c = img.clone();
+        optics::motion_blur(&mut c, w, h, 50.0, &depth, t);
+        for out in [&a, &b, &c] {
+            proptest::prop_assert!((total(out) / before - 1.0).abs() < 1e-5);
+            proptest::prop_assert!(out.iter().all(|&v| v >= -1e-3 * before as f32 / (w * h) as f32));
+        }
+    }
+}
