@@ -69,7 +69,7 @@
 //! that is the radial flow from the focus of expansion, of length about
 //! `|v t| r / Z` pixels at `r` pixels from it (exact projection is used, not that
 //! linearisation). Each source pixel is split into `K` equal parts placed at the midpoints of
-//! `K` equal steps of `s` (about two per pixel of path, at most [`MOTION_MAX_SAMPLES`]) and
+//! `K` equal steps of `s` (one per pixel of path and one more, at most [`MOTION_MAX_SAMPLES`]) and
 //! splatted bilinearly: deterministic, and exact in energy. Points with no depth (no hit, at
 //! infinity) do not move under translation. The velocity comes from the caller
 //! ([`OpticsInput::velocity_m_s`], world frame); [`agent_velocity`] gives the walk's, at the
@@ -461,7 +461,7 @@ pub fn motion_blur(image: &mut [f32], w: usize, h: usize, focal_px: f64, depth_m
             out[i] += v;
             continue;
         }
-        let k = ((2.0 * len).ceil() as usize + 1).min(MOTION_MAX_SAMPLES);
+        let k = (len.ceil() as usize + 1).min(MOTION_MAX_SAMPLES);
         let part = v / k as f64;
         for j in 0..k {
             let s = -0.5 + (j as f64 + 0.5) / k as f64;
