@@ -1,5 +1,5 @@
 //! Lens and motion effects on the sensor-plane irradiance: diffraction, defocus and motion
-//! blur, each switchable in the [`CameraSpec`](crate::camera_spec::CameraSpec).
+//! blur, each switchable in the [`CameraSpec`].
 //!
 //! They act on the per-pixel sensor-plane signal **after** the camera equation (and cos^4
 //! vignetting) and **before** photon noise, see [`crate::radiometry::capture_frame`]. The
