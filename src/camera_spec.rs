@@ -8,6 +8,13 @@
 //! focal_mm = 4.0
 //! pitch_deg = -10.0
 //! noise = "emva"        # "emva" | "affine" | "off"
+//! # Optics (src/optics.rs), each switchable:
+//! vignetting = true      # cos^4 fall-off
+//! diffraction = true     # Airy blur at 550 nm (Gaussian sigma 0.42 lambda N); no-op when sub-pixel
+//! defocus = false        # thin-lens circle of confusion from the depth buffer
+//! focus_m = 1.5          # focus distance (> focal length); omitted: hyperfocal, 2-pixel CoC
+//! motion_blur = false    # camera translation during the exposure
+//! motion_speed_m_s = 0.5 # omitted: the walk's speed, as the caller passes it
 //! ```
 //!
 //! [`CameraSpec::resolve`] looks the sensor up in a [`Catalog`] and gives a [`ResolvedCamera`]:
@@ -131,6 +138,25 @@ pub struct CameraSpec {
     /// Bin the sensor down to at most this many pixels across (see the module doc).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub max_width_px: Option<u32>,
+    /// Diffraction blur (Gaussian approximation of the Airy pattern at 550 nm); see
+    /// [`crate::optics`]. On by default: physical, and free when under a pixel.
+    #[serde(default = "d_true")]
+    pub diffraction: bool,
+    /// Thin-lens defocus from the depth buffer, focused at `focus_m`; off by default (the
+    /// reference system's ideal optics).
+    #[serde(default)]
+    pub defocus: bool,
+    /// Focus distance, metres (> focal length); `None`: the hyperfocal distance for a 2-pixel
+    /// circle of confusion ([`crate::optics::focus_distance_m`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub focus_m: Option<f32>,
+    /// Motion blur from the camera's translation during the exposure; off by default.
+    #[serde(default)]
+    pub motion_blur: bool,
+    /// Camera speed for motion blur, m/s (>= 0), along the direction of travel; `None`: the
+    /// walk's speed, as the caller passes it ([`crate::optics::agent_velocity`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub motion_speed_m_s: Option<f32>,
 }
 
 /// A camera spec that cannot be used; each names the file/line or the field.
@@ -180,6 +206,11 @@ impl CameraSpec {
             vignetting: true,
             noise: NoiseKind::Emva,
             max_width_px: None,
+            diffraction: true,
+            defocus: false,
+            focus_m: None,
+            motion_blur: false,
+            motion_speed_m_s: None,
         }
     }
 
@@ -236,6 +267,7 @@ impl CameraSpec {
             seen.push(key);
             let f32v = || value.parse::<f32>().map_err(|_| field(key, format!("'{value}' is not a number")));
             let f64v = || value.parse::<f64>().map_err(|_| field(key, format!("'{value}' is not a number")));
+            let boolv = || value.parse::<bool>().map_err(|_| field(key, format!("'{value}' is not true or false")));
             match key {
                 "focal_mm" => spec.focal_mm = f32v()?,
                 "f_number" => spec.f_number = f32v()?,
@@ -246,10 +278,12 @@ impl CameraSpec {
                 "gain_day_db" => spec.gain_day_db = f64v()?,
                 "gain_night_db" => spec.gain_night_db = f64v()?,
                 "lens_transmittance" => spec.lens_transmittance = f32v()?,
-                "vignetting" => {
-                    spec.vignetting =
-                        value.parse::<bool>().map_err(|_| field(key, format!("'{value}' is not true or false")))?;
-                }
+                "vignetting" => spec.vignetting = boolv()?,
+                "diffraction" => spec.diffraction = boolv()?,
+                "defocus" => spec.defocus = boolv()?,
+                "motion_blur" => spec.motion_blur = boolv()?,
+                "focus_m" => spec.focus_m = Some(f32v()?),
+                "motion_speed_m_s" => spec.motion_speed_m_s = Some(f32v()?),
                 "noise" => {
                     spec.noise = NoiseKind::parse(value)
                         .ok_or_else(|| field(key, format!("'{value}' is not emva, affine or off")))?;
@@ -295,6 +329,20 @@ impl CameraSpec {
         }
         if self.max_width_px == Some(0) {
             return Err(field("max_width_px", "must be at least 1"));
+        }
+        if let Some(z) = self.focus_m {
+            let f_m = self.focal_mm * 1e-3;
+            if !(z.is_finite() && z > f_m) {
+                return Err(field(
+                    "focus_m",
+                    format!("must be a finite distance beyond the focal length ({f_m} m), got {z}"),
+                ));
+            }
+        }
+        if let Some(v) = self.motion_speed_m_s {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(field("motion_speed_m_s", format!("must be a finite number >= 0, got {v}")));
+            }
         }
         Ok(())
     }

@@ -72,6 +72,7 @@ pub mod library;
 pub mod lights;
 pub mod manifest;
 pub mod materials;
+pub mod optics;
 pub mod orb;
 pub mod placement;
 pub mod radiometry;

@@ -10,8 +10,14 @@
 //! affine path of the reference paper works per colour channel on 8-bit values: each channel's
 //! radiance goes through the same chain to its noiseless mean DN, scaled to 8 bits, and then
 //! gets the affine noise `var = g sigma_p^2 I + g^2 sigma_t^2` (see [`AffineNoise`]).
+//!
+//! Between the camera equation and the noise, the lens and motion effects of [`crate::optics`]
+//! (diffraction, defocus, motion blur) redistribute the mean photons per pixel, which is the
+//! sensor-plane irradiance up to a constant: [`capture_frame`] takes the depth buffer and the
+//! camera velocity they need; [`capture`] applies only the ones that need neither.
 
 use crate::camera_spec::{NoiseKind, ResolvedCamera};
+use crate::optics::{OpticsInput, OpticsPlan, apply_plan};
 use crate::render::{Camera, luminance, sensor_illuminance_lux};
 use crate::sensor::AffineNoise;
 
@@ -101,7 +107,8 @@ pub fn mean_variance(values: &[u16]) -> (f64, f64) {
 
 /// Simulates the image of `radiance` (linear RGB nit per pixel, already scaled to the
 /// scenario) seen by `resolved` as `camera`, at `gain_db`. `pattern_seed` fixes the sensor
-/// instance, `frame_seed` the temporal noise.
+/// instance, `frame_seed` the temporal noise. Of the optics only those that need no depth
+/// (diffraction) apply; see [`capture_frame`].
 ///
 /// # Panics
 /// If `radiance.len()` is not the camera's pixel count.
@@ -114,20 +121,49 @@ pub fn capture(
     pattern_seed: u64,
     frame_seed: u64,
 ) -> Capture {
+    capture_frame(resolved, camera, radiance, None, gain_db, pattern_seed, frame_seed)
+}
+
+/// [`capture`] with the frame's depth buffer and camera velocity, so every optical effect the
+/// spec turns on applies ([`crate::optics`]): defocus and motion blur need `optics`; with
+/// `None` they are skipped.
+///
+/// # Panics
+/// If `radiance.len()` or `optics.depth_m.len()` is not the camera's pixel count.
+#[must_use]
+pub fn capture_frame(
+    resolved: &ResolvedCamera,
+    camera: &Camera,
+    radiance: &[[f32; 3]],
+    optics: Option<OpticsInput<'_>>,
+    gain_db: f64,
+    pattern_seed: u64,
+    frame_seed: u64,
+) -> Capture {
     let (w, h) = (camera.width_px as usize, camera.height_px as usize);
     assert_eq!(radiance.len(), w * h, "radiance must have one value per pixel");
     let spec = &resolved.spec;
     let model = resolved.sensor_model(pattern_seed);
     let t = spec.exposure_s;
-    let lum: Vec<f32> = radiance.iter().map(|c| luminance(glam::Vec3::from(*c))).collect();
+    let plan = OpticsPlan::new(resolved, camera, optics.as_ref());
+    // Sensor-plane signal (mean photons, proportional to irradiance) through the optics.
+    let sensor_plane = |values: &[f32]| -> Vec<f32> {
+        let mut photons = photon_image(camera, values, spec.lens_transmittance, t);
+        if !plan.is_identity() {
+            apply_plan(&plan, camera, &mut photons, optics.as_ref());
+        }
+        photons
+    };
     match spec.noise {
         NoiseKind::Emva => {
-            let photons = photon_image(camera, &lum, spec.lens_transmittance, t);
+            let lum: Vec<f32> = radiance.iter().map(|c| luminance(glam::Vec3::from(*c))).collect();
+            let photons = sensor_plane(&lum);
             let dn = model.simulate(&photons, w, h, t, gain_db, frame_seed);
             Capture { width: camera.width_px, height: camera.height_px, channels: 1, bits: model.adc_bits, dn }
         }
         NoiseKind::Off => {
-            let photons = photon_image(camera, &lum, spec.lens_transmittance, t);
+            let lum: Vec<f32> = radiance.iter().map(|c| luminance(glam::Vec3::from(*c))).collect();
+            let photons = sensor_plane(&lum);
             let max = model.max_dn();
             let dn = photons
                 .iter()
@@ -145,7 +181,7 @@ pub fn capture(
             let channel_photons: Vec<Vec<f32>> = (0..3)
                 .map(|c| {
                     let l: Vec<f32> = radiance.iter().map(|px| px[c]).collect();
-                    photon_image(camera, &l, spec.lens_transmittance, t)
+                    sensor_plane(&l)
                 })
                 .collect();
             let mut rgb8 = vec![0u8; w * h * 3];

@@ -48,7 +48,7 @@ use crate::detection::{GroundTruthConfig, frame_ground_truth};
 use crate::evaluate::{EvalError, scenario_light_scales};
 use crate::generate::generate;
 use crate::library::Library;
-use crate::radiometry::capture;
+use crate::radiometry::capture_frame;
 use crate::render::{RenderError, RenderSettings, Renderer};
 use crate::scene::{LightGroup, ObjectClass, THRESHOLD_CLASS_ID, THRESHOLD_CLASS_NAME};
 use crate::sensor::Catalog;
@@ -616,7 +616,16 @@ impl Dataset {
                         };
                         let frame_seed =
                             crate::rng::fnv1a64(format!("dataset/{seed}/{p}/{}", lighting.name()).as_bytes());
-                        let cap = capture(&self.resolved, &camera, &radiance, gain_db, seed, frame_seed);
+                        let optics = crate::optics::OpticsInput {
+                            depth_m: &frame.depth_m,
+                            velocity_m_s: crate::optics::agent_velocity(
+                                &self.resolved.spec,
+                                pose.yaw_deg,
+                                params.speed_m_per_s,
+                            ),
+                        };
+                        let cap =
+                            capture_frame(&self.resolved, &camera, &radiance, Some(optics), gain_db, seed, frame_seed);
                         let (bytes, _) = png::capture_png(&cap);
                         self.write(&self.dir.join("images").join(Self::image_rel(seed, p, lighting)), &bytes)?;
                     }
