@@ -77,5 +77,6 @@ pub mod rng;
 pub mod scene;
 pub mod sensor;
 pub mod structure;
+pub mod target;
 pub mod textures;
 pub mod trajectory;

@@ -7,6 +7,7 @@ mod generate;
 mod orb;
 mod render;
 mod sensors;
+mod target;
 
 use clap::{Parser, Subcommand};
 
@@ -59,6 +60,8 @@ pub enum Command {
     Render(render::RenderArgs),
     /// Perception scores (thresholds, AP@0.5, ORB) and fitness of a camera candidate.
     Evaluate(evaluate::EvaluateArgs),
+    /// Test-chart loop: simulate a chart image, or name the effects a chart photograph shows.
+    Target(target::TargetArgs),
 }
 
 pub fn parse() -> Cli {
@@ -75,5 +78,6 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Some(Command::Match(args)) => orb::run_match(&args),
         Some(Command::Render(args)) => render::run(&args),
         Some(Command::Evaluate(args)) => evaluate::run(&args),
+        Some(Command::Target(args)) => target::run(&args),
     }
 }
