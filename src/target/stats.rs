@@ -135,7 +135,10 @@ pub fn measure(image: &[f64], layout: &Layout) -> Stats {
 /// The 10-90 % and 25-75 % rise distances of an edge's ESF, pixels.
 #[must_use]
 pub fn edge_widths(image: &[f64], width: usize, e: &Edge) -> [f64; 2] {
-    let c = e.cell.inset(2);
+    // Stay a tenth of the cell clear of its border: blur from the neighbouring cells would
+    // tilt the plateaus.
+    let side = (e.cell.x1 - e.cell.x0).min(e.cell.y1 - e.cell.y0);
+    let c = e.cell.inset((side / 10).max(2));
     let half = ((c.x1 - c.x0).min(c.y1 - c.y0) as f64 / 2.0 - 2.0).max(4.0);
     let nb = (2.0 * half * ESF_BINS_PER_PX) as usize;
     let mut sum = vec![0f64; nb];
