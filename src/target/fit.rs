@@ -3,6 +3,9 @@
 //! Each fit is an increment: it moves the current parameters by the residual (measured minus
 //! simulated) of the statistics the effect drives over the effect's sensitivity, so the same
 //! code adds an effect and polishes it after re-simulation ([`POLISH_STEPS`] times per trial).
+//! The accepted effect's size is then refined by a parabola search of the total chi-square over
+//! a factor on its parameters (the increments assume Gaussian-shaped widths, which a line
+//! kernel is not).
 //!
 //! * `lens_blur`: Gaussian-equivalent variances of the four edge widths (a Gaussian's 10-90 %
 //!   rise is 2.563 sigma, its 25-75 % rise 1.349 sigma); `sigma^2 += mean(w_m^2 - w_s^2) / c^2`.

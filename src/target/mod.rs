@@ -26,6 +26,12 @@
 //! `dsnu`; `read_noise_split` needs two gains, `dark_current` and `hot_pixels` dark frames,
 //! `row_column_noise` and `periodic_pattern` flat fields, so they are not candidates here.
 //!
+//! Measured (tests/target.rs, effects applied by the test's own code to the photons, the noise
+//! from another sensor instance and seed; tests/interop/check_target.sh, effects applied by
+//! OpenCV/numpy): a clean chart names nothing; lens blur, motion blur, cos^4 fall-off, PRNU,
+//! lens blur + fall-off and motion blur + fall-off each name exactly the applied effects, and the
+//! gap shrinks by more than 99 %.
+//!
 //! Simulation uses [`LoopOptions::frames`] realisations with fixed frame seeds, the same for
 //! every candidate (common random numbers), so candidates differ by their parameters only.
 
