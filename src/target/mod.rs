@@ -29,7 +29,7 @@
 //! Measured (tests/target.rs, effects applied by the test's own code to the photons, the noise
 //! from another sensor instance and seed; tests/interop/check_target.sh, effects applied by
 //! OpenCV/numpy): a clean chart names nothing; lens blur, motion blur, cos^4 fall-off, PRNU,
-//! lens blur + fall-off and motion blur + fall-off each name exactly the applied effects, and the
+//! DSNU, lens blur + fall-off and motion blur + fall-off each name exactly the applied effects, and the
 //! gap shrinks by more than 99 %.
 //!
 //! Simulation uses [`LoopOptions::frames`] realisations with fixed frame seeds, the same for
