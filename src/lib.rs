@@ -82,5 +82,6 @@ pub mod scene;
 pub mod sensor;
 pub mod serve;
 pub mod structure;
+pub mod target;
 pub mod textures;
 pub mod trajectory;

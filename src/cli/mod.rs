@@ -9,6 +9,7 @@ mod orb;
 mod render;
 mod sensors;
 mod serve;
+mod target;
 
 use clap::{Parser, Subcommand};
 
@@ -65,6 +66,8 @@ pub enum Command {
     Serve(serve::ServeArgs),
     /// COCO dataset (images, depth, instance masks, annotations) over a seed range, shardable.
     Dataset(dataset::DatasetArgs),
+    /// Test-chart loop: simulate a chart image, or name the effects a chart photograph shows.
+    Target(target::TargetArgs),
 }
 
 pub fn parse() -> Cli {
@@ -83,5 +86,6 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Some(Command::Evaluate(args)) => evaluate::run(&args),
         Some(Command::Serve(args)) => serve::run(&args),
         Some(Command::Dataset(args)) => dataset::run(&args),
+        Some(Command::Target(args)) => target::run(&args),
     }
 }

@@ -1,0 +1,81 @@
+"""Applies optics effects to a simulated test chart with OpenCV and numpy, independently of
+scene-gen's own effect code, and writes the "measured" 16-bit PNG for `scene-gen target gap`.
+
+A lens blurs and shades the light before the sensor, so the effect is applied to the noiseless
+render (`<stem>.mean.png`, DN x 16, written by `scene-gen target chart`); the render's own noise
+realisation (noisy minus mean, from scene-gen's sensor model) is then carried over, rescaled to
+the new signal level with an affine noise law `var = a + b * signal` that this script fits
+itself to the chart's noise (a photon-transfer fit: read and quantisation noise in `a`, shot
+noise in `b`).
+
+    target_effects.py CHART.png LAYOUT.json OUT.png [--lens SIGMA] [--motion LENGTH]
+                      [--falloff HALF_ANGLE_DEG]
+"""
+
+import argparse
+import json
+import sys
+
+import cv2
+import numpy as np
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("chart")
+    ap.add_argument("layout")
+    ap.add_argument("out")
+    ap.add_argument("--lens", type=float, help="Gaussian PSF sigma, px (cv2.GaussianBlur)")
+    ap.add_argument("--motion", type=int, help="horizontal line kernel length, px (cv2.filter2D)")
+    ap.add_argument("--falloff", type=float, help="cos^4 fall-off reaching this field angle at the corners, deg")
+    a = ap.parse_args()
+
+    layout = json.load(open(a.layout))
+    noisy = cv2.imread(a.chart, cv2.IMREAD_UNCHANGED).astype(np.float64)
+    mean_path = a.chart[: -len(".png")] + ".mean.png"
+    # The noiseless render holds DN x 16 (scene_gen::target::chart::MEAN_PNG_SCALE).
+    mean = cv2.imread(mean_path, cv2.IMREAD_UNCHANGED).astype(np.float64) / 16.0
+    if noisy.shape != mean.shape or noisy.shape != (layout["height_px"], layout["width_px"]):
+        print("target_effects: chart, mean and layout sizes differ", file=sys.stderr)
+        return 1
+    black = layout["black_level_dn"]
+    max_dn = 2 ** layout["bits"] - 1
+    signal = mean - black
+
+    out = signal.copy()
+    if a.falloff is not None:
+        h, w = out.shape
+        yy, xx = np.mgrid[0:h, 0:w]
+        r = np.hypot(xx + 0.5 - w / 2, yy + 0.5 - h / 2) / np.hypot(w / 2, h / 2)
+        field = np.arctan(r * np.tan(np.radians(a.falloff)))
+        out = out * np.cos(field) ** 4
+    if a.lens is not None:
+        out = cv2.GaussianBlur(out, (0, 0), a.lens, borderType=cv2.BORDER_REPLICATE)
+    if a.motion is not None:
+        k = np.zeros((a.motion, a.motion), np.float64)
+        k[a.motion // 2, :] = 1.0 / a.motion
+        out = cv2.filter2D(out, -1, k, borderType=cv2.BORDER_REPLICATE)
+
+    noise = noisy - mean
+    # Photon transfer of the render: noise variance against signal over 24 signal quantiles,
+    # fitted with a straight line.
+    edges = np.quantile(signal, np.linspace(0, 1, 25))
+    xs, ys = [], []
+    for lo, hi in zip(edges[:-1], edges[1:]):
+        sel = (signal >= lo) & (signal < hi)
+        if sel.sum() > 100:
+            xs.append(signal[sel].mean())
+            ys.append(noise[sel].var())
+    slope, icpt = np.polyfit(xs, ys, 1)
+    var_old = np.clip(icpt + slope * signal, 1e-6, None)
+    var_new = np.clip(icpt + slope * np.clip(out, 0, None), 1e-6, None)
+    scale = np.sqrt(var_new / var_old)
+    measured = np.clip(np.rint(black + out + noise * scale), 0, max_dn).astype(np.uint16)
+    cv2.imwrite(a.out, measured)
+    print(f"target_effects: {a.out} lens={a.lens} motion={a.motion} falloff={a.falloff} "
+          f"(noise var = {icpt:.3f} + {slope:.5f} signal)")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
