@@ -4,6 +4,7 @@ mod calibrate;
 mod evaluate;
 mod gap;
 mod generate;
+mod optimize;
 mod orb;
 mod render;
 mod sensors;
@@ -59,6 +60,8 @@ pub enum Command {
     Render(render::RenderArgs),
     /// Perception scores (thresholds, AP@0.5, ORB) and fitness of a camera candidate.
     Evaluate(evaluate::EvaluateArgs),
+    /// Camera-design optimizer: the TaCOS genetic algorithm or random search, resumable.
+    Optimize(optimize::OptimizeArgs),
 }
 
 pub fn parse() -> Cli {
@@ -75,5 +78,6 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Some(Command::Match(args)) => orb::run_match(&args),
         Some(Command::Render(args)) => render::run(&args),
         Some(Command::Evaluate(args)) => evaluate::run(&args),
+        Some(Command::Optimize(args)) => optimize::run(&args),
     }
 }
