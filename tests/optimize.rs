@@ -182,7 +182,7 @@ fn cli(args: &[&str], stop_after: Option<usize>) -> std::process::Output {
 
 const TINY: &str = "seed = 3\n\
 [ga]\npopulation = 4\ngenerations = 2\nparents = 2\nelites = 1\n\
-[evaluation]\nseeds = [0]\nframes_per_scene = 2\nmax_width_px = 64\n";
+[evaluation]\nseeds = [0]\nframes_per_scene = 4\nmax_width_px = 96\n";
 
 fn write_config(name: &str, text: &str) -> PathBuf {
     let path = fresh_dir(name).with_extension("toml");
@@ -216,13 +216,14 @@ fn cli_run_resumes_to_the_same_bytes_and_its_best_camera_loads() {
     let rows = scene_gen::optimize::run::read_generations_csv(&gens).unwrap();
     assert_eq!(rows.len(), 2);
     let out = Command::new(env!("CARGO_BIN_EXE_scene-gen"))
-        .args(["evaluate", "--camera", best.to_str().unwrap(), "--seeds", "0", "--frames", "2", "--max-width", "64"])
+        .args(["evaluate", "--camera", best.to_str().unwrap(), "--seeds", "0", "--frames", "4", "--max-width", "96"])
         .args(["--json"])
         .output()
         .unwrap();
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let mean = v["fitness"]["mean"].as_f64().unwrap();
+    assert!(rows[1].4 > 0.0, "this tiny task scores some candidate above 0");
     assert!((mean - rows[1].4).abs() < 1e-9, "re-evaluated best {mean} vs best so far {}", rows[1].4);
     let png = std::fs::read(full.join("curve.png")).unwrap();
     assert_eq!(&png[1..4], b"PNG");
