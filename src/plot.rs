@@ -90,6 +90,11 @@ pub fn line_chart(title: &str, series: &[Series], width: u32, height: u32) -> Rg
     if x1 <= x0 {
         x1 = x0 + 1.0;
     }
+    // Whole-number x data (generations, evaluations): widen the axis to a multiple of the four
+    // grid steps so every tick label is a whole number.
+    if finite().all(|(x, _)| x.fract() == 0.0) {
+        x1 = x0 + ((x1 - x0) / 4.0).ceil() * 4.0;
+    }
     let pad = if y1 > y0 { 0.05 * (y1 - y0) } else { 0.5 };
     (y0, y1) = (y0 - pad, y1 + pad);
     let (left, right) = (MARGIN_LEFT, width as i32 - MARGIN_RIGHT);
