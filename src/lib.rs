@@ -31,6 +31,7 @@
 //!   inline `SENSOR,key=value` form, resolved against the catalog.
 //! * [`trajectory`]: the agent's walk through every room and door (the evaluator's poses).
 //! * [`render`]: the CPU ray tracer (radiance per light group, depth, instance/class ids).
+//! * [`optics`]: diffraction, defocus and motion blur of the sensor-plane irradiance.
 //! * [`radiometry`]: scene luminance to sensor illuminance, photons, electrons and DN.
 //! * [`sensor`]: the sensor catalog and the EMVA 1288 noise model (photons to DN), shared by the
 //!   renderer, the calibration and the gap workflow.
@@ -47,6 +48,13 @@
 //!   model misses and adds them.
 //! * [`dataset`]: COCO datasets (images, depth, instance masks, RLE annotations) over seed
 //!   ranges, resumable and sharded across machines (`scene-gen dataset`).
+//! * [`target`]: the same gap loop for images of a test chart (`scene-gen target`): lens blur,
+//!   motion blur, illumination fall-off and single-frame noise effects.
+//!
+//! Design:
+//! * [`optimize`]: the TaCOS genetic algorithm and a random-search baseline over camera genes
+//!   (`scene-gen optimize`), resumable; [`plot`] draws its training curve.
+//! * [`serve`]: the evaluator as a JSON-lines server any optimizer can drive (`scene-gen serve`).
 //!
 //! ```no_run
 //! use scene_gen::{config::GeneratorConfig, generate::generate, library::Library};
@@ -73,8 +81,10 @@ pub mod lights;
 pub mod manifest;
 pub mod materials;
 pub mod optics;
+pub mod optimize;
 pub mod orb;
 pub mod placement;
+pub mod plot;
 pub mod radiometry;
 pub mod render;
 pub mod rng;

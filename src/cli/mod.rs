@@ -5,6 +5,7 @@ mod dataset;
 mod evaluate;
 mod gap;
 mod generate;
+mod optimize;
 mod orb;
 mod render;
 mod sensors;
@@ -68,6 +69,8 @@ pub enum Command {
     Dataset(dataset::DatasetArgs),
     /// Test-chart loop: simulate a chart image, or name the effects a chart photograph shows.
     Target(target::TargetArgs),
+    /// Camera-design optimizer: the TaCOS genetic algorithm or random search, resumable.
+    Optimize(optimize::OptimizeArgs),
 }
 
 pub fn parse() -> Cli {
@@ -87,5 +90,6 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Some(Command::Serve(args)) => serve::run(&args),
         Some(Command::Dataset(args)) => dataset::run(&args),
         Some(Command::Target(args)) => target::run(&args),
+        Some(Command::Optimize(args)) => optimize::run(&args),
     }
 }
