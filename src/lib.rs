@@ -89,6 +89,7 @@ pub mod radiometry;
 pub mod render;
 pub mod rng;
 pub mod scene;
+pub mod seeds;
 pub mod sensor;
 pub mod serve;
 pub mod structure;

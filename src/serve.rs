@@ -83,6 +83,7 @@ use serde_json::Value;
 
 use crate::camera_spec::{CameraSpec, SpecError};
 use crate::evaluate::{self, EvalConfig, EvalError, Fitness, FitnessWeights, Scenarios};
+use crate::seeds::SeedRange;
 use crate::sensor::Catalog;
 
 /// The protocol version every `describe` response names.
@@ -309,28 +310,11 @@ pub struct ServeSummary {
 /// # Errors
 /// A message naming the text when it is none of these forms, empty or too long.
 pub fn parse_seeds(text: &str) -> Result<Vec<u64>, String> {
-    let bad = || format!("seeds '{text}': expected A..B, A..=B or a seed");
-    let num = |s: &str| s.trim().parse::<u64>().map_err(|_| bad());
-    let t = text.trim();
-    let (start, end) = if let Some((a, b)) = t.split_once("..=") {
-        (num(a)?, num(b)?)
-    } else if let Some((a, b)) = t.split_once("..") {
-        let (a, b) = (num(a)?, num(b)?);
-        if b <= a {
-            return Err(format!("seeds '{text}' is empty"));
-        }
-        (a, b - 1)
-    } else {
-        let s = num(t)?;
-        (s, s)
-    };
-    if end < start {
-        return Err(format!("seeds '{text}' is empty"));
-    }
-    if end - start >= MAX_SEEDS as u64 {
+    let range: SeedRange = text.parse().map_err(|e: crate::seeds::SeedsError| e.to_string())?;
+    if range.len() > MAX_SEEDS as u64 {
         return Err(format!("seeds '{text}': at most {MAX_SEEDS} seeds per request"));
     }
-    Ok((start..=end).collect())
+    Ok(range.iter().collect())
 }
 
 fn seeds_of(field: &SeedsField) -> Result<Vec<u64>, RequestError> {

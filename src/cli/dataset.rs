@@ -89,7 +89,7 @@ fn classify(e: DatasetError) -> CliError {
 
 pub fn run(args: &DatasetArgs) -> Result<(), CliError> {
     // Every input check before any work or write.
-    let seeds: SeedRange = args.seeds.parse().map_err(|e: scene_gen::dataset::ShardError| bad_input(e))?;
+    let seeds: SeedRange = scene_gen::dataset::parse_seeds(&args.seeds).map_err(bad_input)?;
     let shard: Shard = args.shard.parse().map_err(|e: scene_gen::dataset::ShardError| bad_input(e))?;
     let mut camera = CameraSpec::from_arg(&args.camera).map_err(bad_input)?;
     if let Some(m) = args.max_width {

@@ -55,7 +55,7 @@ use crate::sensor::Catalog;
 use crate::trajectory::{self, TrajectoryParams};
 
 pub use rle::{Rle, RleJson};
-pub use shard::{SeedRange, Shard, ShardError};
+pub use shard::{SeedRange, Shard, ShardError, parse_seeds};
 
 /// Schema of `dataset.json`.
 pub const SCHEMA: &str = "scene-gen/dataset/1";

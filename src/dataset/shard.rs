@@ -9,6 +9,9 @@
 use std::fmt;
 use std::str::FromStr;
 
+pub use crate::seeds::SeedRange;
+use crate::seeds::SeedsError;
+
 /// Largest seed a dataset takes: image ids pack the seed into the top bits of a number that
 /// must stay below 2^53 (exact in JSON readers that use doubles); see [`super::image_id`].
 pub const MAX_SEED: u64 = (1 << 31) - 1;
@@ -16,77 +19,25 @@ pub const MAX_SEED: u64 = (1 << 31) - 1;
 /// Why a `--seeds` or `--shard` argument was refused.
 #[derive(Debug, thiserror::Error, PartialEq, Eq)]
 pub enum ShardError {
-    #[error("--seeds '{0}': expected A..B (B excluded), A..=B or one seed, e.g. 0..100")]
-    BadSeeds(String),
-    #[error("--seeds '{0}' holds no seed")]
-    EmptySeeds(String),
+    #[error("--{0}")]
+    Seeds(#[from] SeedsError),
     #[error("--seeds '{text}': seeds must be at most {MAX_SEED} (image ids hold 31 bits of seed)")]
     SeedTooLarge { text: String },
     #[error("--shard '{0}': expected I/N with N >= 1 and 0 <= I < N, e.g. 0/4")]
     BadShard(String),
 }
 
-/// An inclusive range of house seeds.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct SeedRange {
-    pub first: u64,
-    pub last: u64,
-}
-
-impl SeedRange {
-    /// The seeds, in increasing order.
-    pub fn iter(&self) -> impl Iterator<Item = u64> + use<> {
-        self.first..=self.last
+/// Parses a `--seeds` argument and checks it against [`MAX_SEED`].
+///
+/// # Errors
+/// [`ShardError::Seeds`] for a malformed or empty range, [`ShardError::SeedTooLarge`] above
+/// [`MAX_SEED`].
+pub fn parse_seeds(text: &str) -> Result<SeedRange, ShardError> {
+    let range: SeedRange = text.parse()?;
+    if range.last > MAX_SEED {
+        return Err(ShardError::SeedTooLarge { text: text.to_string() });
     }
-
-    /// How many seeds.
-    #[must_use]
-    pub fn len(&self) -> u64 {
-        self.last - self.first + 1
-    }
-
-    /// Never true: a range holds at least one seed.
-    #[must_use]
-    pub fn is_empty(&self) -> bool {
-        false
-    }
-}
-
-impl fmt::Display for SeedRange {
-    /// The canonical `A..=B` form.
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{}..={}", self.first, self.last)
-    }
-}
-
-impl FromStr for SeedRange {
-    type Err = ShardError;
-
-    /// `A..B` (half-open, as in Rust and `scene-gen evaluate`), `A..=B`, or `A`.
-    fn from_str(text: &str) -> Result<SeedRange, ShardError> {
-        let bad = || ShardError::BadSeeds(text.to_string());
-        let num = |s: &str| s.trim().parse::<u64>().map_err(|_| bad());
-        let t = text.trim();
-        let (first, last) = if let Some((a, b)) = t.split_once("..=") {
-            (num(a)?, num(b)?)
-        } else if let Some((a, b)) = t.split_once("..") {
-            let (a, b) = (num(a)?, num(b)?);
-            if b <= a {
-                return Err(ShardError::EmptySeeds(text.to_string()));
-            }
-            (a, b - 1)
-        } else {
-            let a = num(t)?;
-            (a, a)
-        };
-        if last < first {
-            return Err(ShardError::EmptySeeds(text.to_string()));
-        }
-        if last > MAX_SEED {
-            return Err(ShardError::SeedTooLarge { text: text.to_string() });
-        }
-        Ok(SeedRange { first, last })
-    }
+    Ok(range)
 }
 
 /// Shard `index` of `count`.
@@ -141,14 +92,11 @@ mod tests {
 
     #[test]
     fn seed_ranges() {
-        assert_eq!("3..6".parse(), Ok(SeedRange { first: 3, last: 5 }));
-        assert_eq!("3..=6".parse(), Ok(SeedRange { first: 3, last: 6 }));
-        assert_eq!("7".parse(), Ok(SeedRange { first: 7, last: 7 }));
-        assert_eq!("3..3".parse::<SeedRange>(), Err(ShardError::EmptySeeds("3..3".into())));
-        assert!(matches!("5..=4".parse::<SeedRange>(), Err(ShardError::EmptySeeds(_))));
-        assert!(matches!("a..4".parse::<SeedRange>(), Err(ShardError::BadSeeds(_))));
-        assert!(matches!("-1..4".parse::<SeedRange>(), Err(ShardError::BadSeeds(_))));
-        assert!(matches!("0..=2147483648".parse::<SeedRange>(), Err(ShardError::SeedTooLarge { .. })));
+        assert_eq!(parse_seeds("3..6"), Ok(SeedRange { first: 3, last: 5 }));
+        assert_eq!(parse_seeds("0..=2147483647").map(|r| r.last), Ok(MAX_SEED));
+        assert!(matches!(parse_seeds("3..3"), Err(ShardError::Seeds(SeedsError::Empty(_)))));
+        assert!(matches!(parse_seeds("a..4"), Err(ShardError::Seeds(SeedsError::Syntax(_)))));
+        assert!(matches!(parse_seeds("0..=2147483648"), Err(ShardError::SeedTooLarge { .. })));
     }
 
     #[test]
