@@ -26,6 +26,11 @@
 //!    ([`MID_GREY_OUTPUT`]).
 //! 4. **8 bits**: `round(255 y)`.
 //!
+//! Measured (`scene-gen evaluate --camera IMX174,focal_mm=4,pitch_deg=-10 --seeds 0..2`, 25
+//! anchors, 320 px): with `top_bits` the night image averaged ~3 DN and ORB kept 1.6 keypoints
+//! and 0 inliers per pair (day 183 keypoints, 88 inliers); with `isp` night has 565 keypoints and
+//! 181 inliers per pair, day 1297 and 546: non-zero at night, still below day.
+//!
 //! A colour capture (the affine path, already 8-bit per channel) is reduced to linear luma
 //! (Rec. 709 weights) first and goes through the same steps with its own black and mid-grey
 //! levels scaled to 8 bits.
