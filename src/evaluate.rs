@@ -2,60 +2,98 @@
 //! (reference/tacos_facts.md), over seeded houses.
 //!
 //! Per seed the house is generated with the default configuration, the agent's walk is planned
-//! at the spec's mounting height ([`crate::trajectory`]), and frames are rendered at
-//! [`EvalConfig::frames_per_scene`] *anchor* poses evenly spaced along the walk. Each anchor is
-//! rendered together with its successor pose (0.25 m later) so ORB has a genuine consecutive
-//! pair to match: anchors alone are metres apart and would give zero inliers whatever the camera.
-//! The poses in the 0.5 s window before every door crossing are rendered as well, for
-//! threshold visibility only: anchors are too sparse to ever fall in that window.
+//! at the spec's mounting height and at [`EvalConfig::speed_m_s`] ([`crate::trajectory`]; poses
+//! every 0.25 m), and frames are rendered at [`EvalConfig::frames_per_scene`] *anchor* poses
+//! evenly spaced along the walk. Each anchor is rendered together with its successor pose
+//! (0.25 m later) so ORB has a genuine consecutive pair to match: anchors alone are metres apart
+//! and would give zero inliers whatever the camera. The poses in the 0.5 s window before every
+//! threshold crossing are rendered as well, for threshold visibility only (the same window test
+//! as the score, so no window pose is left out).
 //!
 //! ONE trace per pose serves day and night: the light groups are scaled so the mean
 //! illuminance on the 0.75 m plane is 20 lux by day and 2 lux by night, exactly as
 //! `scene-gen render` does ([`scenario_light_scales`]). Per scenario (day at the spec's
-//! `gain_day_db`, night at `gain_night_db`) the noisy sensor image is reduced to 8-bit grey
-//! (the top 8 bits of the ADC value, or the luma of an RGB capture), which ORB and the
-//! detector see.
+//! `gain_day_db`, night at `gain_night_db`) the noisy sensor image becomes the 8-bit grey image
+//! ORB and the detector see by [`EvalConfig::output`]: by default a fixed ISP (black level, a
+//! digital gain fixed per scenario that puts an 18 % grey at the scenario's lux at the same
+//! output level by day and night, sRGB curve; [`crate::isp`]), or the old top 8 bits of the ADC.
 //!
-//! Scores per scenario:
+//! # Agent speed and the threshold window
+//!
+//! TaCOS does not state its agent's speed; it is [`EvalConfig::speed_m_s`] (`--speed-m-s`),
+//! 1.0 m/s by default ([`crate::trajectory::DEFAULT_SPEED_M_PER_S`] says why), so the 0.5 s
+//! window is 0.5 m of walk. The agent *crosses* a threshold when its body (a disc of the walk's
+//! radius, 0.25 m) first touches the sill's footprint ([`EvalConfig::crossing_at_contact`]; the
+//! time is interpolated between poses): an obstacle must be seen before the body reaches it, not
+//! before the camera centre passes the door. With the old 0.5 m/s and the crossing at the first
+//! pose beyond the door plane, the window was the last 0.25 m before the plane, where the sill is
+//! under the lower field edge of any camera not pointed steeply down (IMX174 4 mm at -10 deg and
+//! 0.8 m sees the floor from 0.63 m ahead), and the default camera scored 0.
+//!
+//! Measured (`scene-gen evaluate --camera C --seeds 0..2`, 25 anchors, 320 px, houses 0 and 1,
+//! 20 crossings), threshold accuracy:
+//!
+//! | camera | before (0.5 m/s, door plane) | now (1.0 m/s, contact) |
+//! | --- | --- | --- |
+//! | IMX174, 4 mm, pitch -10 deg (default) | 0.00 (0/20) | 0.80 (16/20) |
+//! | IMX172, 20 mm, pitch +30 deg (up, long lens, small sensor) | 0.00 | 0.00 (0/20) |
+//!
+//! # Scores per scenario
+//!
 //! * threshold accuracy ([`thresholds::threshold_score`]); the visible-pixel floor is
 //!   [`thresholds::DEFAULT_MIN_VISIBLE_PX`] at 640 x 480, scaled with the pixel count so tiny
 //!   evaluation images are not penalised for their size. It is geometric, so it is the same in
 //!   both scenarios;
-//!   at the walk's 0.5 m/s the window is the last 0.25 m before the door plane, so the sill lies
-//!   about 0.1..0.35 m ahead of a 0.8 m high camera: only a steep, wide view (e.g. 1.5 mm at
-//!   -30 deg on an IMX172) sees it, and the default 4 mm / -10 deg camera scores 0;
-//! * AP@0.5 of the [`DetectabilityModel`] on the anchors' noisy images against the instance
-//!   buffer's ground truth ([`frame_ground_truth`]), [`coco_eval::evaluate`] over every anchor
-//!   of every seed (an AP of -1, no ground truth at all, counts as 0);
+//! * AP@0.5 of the detector against the instance buffer's ground truth ([`frame_ground_truth`]),
+//!   [`coco_eval::evaluate`] over every anchor of every seed (an AP of -1, no ground truth at
+//!   all, counts as 0). The detector is the built-in [`DetectabilityModel`] or an external
+//!   program ([`EvalConfig::detector`], `--detector "CMD ARGS"`) run once per evaluation under
+//!   the plug-in protocol of [`crate::detection`] on the anchors' 8-bit PNGs written to a
+//!   temporary folder, with a COCO ground-truth file beside them (`{gt}` in the command is its
+//!   path); its answers are scored by the same COCO code;
 //! * ORB (2000 features, cross-checked matches, fundamental RANSAC at 3 px) on each
 //!   (anchor, successor) pair: mean inliers per pair, and the mean inlier ratio
 //!   `inliers / (inliers + keypoints)`, keypoints of the anchor frame (tacos_facts.md);
+//! * usable images: anchors whose 8-bit image is neither nearly black nor saturated (mean in
+//!   [[`USABLE_MIN_MEAN`], [`USABLE_MAX_MEAN`]] and fewer than [`USABLE_MAX_CLIPPED_FRACTION`] of
+//!   the pixels at 0 or 255) and that hold at least one counted ground-truth object. TaCOS
+//!   scores a candidate with fewer than 100 usable images on the threshold term only; here the
+//!   floor is [`EvalConfig::min_usable_images`] (`--min-usable`), by default half the
+//!   scenario's anchors ([`DEFAULT_MIN_USABLE_FRACTION`]), because an absolute 100 against
+//!   25 anchors x 2 houses would zero every candidate;
 //! * fitness = threshold accuracy + AP@0.5 + 0.0025 x mean inliers + 0.5 x inlier ratio
-//!   (weights in [`FitnessWeights`]).
+//!   (weights in [`FitnessWeights`]), or the threshold term alone below the usable floor.
 //!
 //! Frames are rendered and scored in parallel (rayon); every random draw is seeded by the
 //! seed, pose index and scenario, and results are gathered in pose order, so the output does not
 //! depend on the thread count. Results are cached per process, keyed by the normalised spec
-//! (its JSON), the seeds and the configuration.
+//! (its JSON), the seeds and every configuration field (speed, output rule, usable floor,
+//! detector, render settings). [`Evaluation::timing_s`] says where the time went (not
+//! deterministic; the CLI prints it with `--timing`).
 
 use std::collections::{BTreeMap, BTreeSet, HashMap};
+use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Mutex, OnceLock};
+use std::time::Instant;
 
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::camera_spec::{CameraSpec, ResolvedCamera, SpecError};
+use crate::camera_spec::{CameraSpec, NoiseKind, ResolvedCamera, SpecError};
 use crate::config::GeneratorConfig;
 use crate::detection::coco_eval::{self, CocoCategory, CocoGroundTruth, CocoImage, DetectionRecord};
 use crate::detection::ground_truth::to_annotations;
+use crate::detection::plugin::{self, PluginError, PluginRequest};
 use crate::detection::thresholds::{self, Crossing, FrameVisibility, ThresholdConfig};
 use crate::detection::{DetectabilityModel, Detector, DetectorInput, GroundTruthConfig, frame_ground_truth};
 use crate::generate::generate;
+use crate::isp::{Isp, OutputRule, to_8bit};
 use crate::library::Library;
 use crate::lights::{DAY_TARGET_LUX, NIGHT_TARGET_LUX, TARGET_PLANE_M};
+use crate::optics::{OpticsInput, agent_velocity};
 use crate::orb::{FundamentalRansac, Orb, match_and_verify};
-use crate::radiometry::{Capture, capture};
+use crate::radiometry::capture_frame;
 use crate::render::{Frame, RenderError, RenderSettings, Renderer, measure_mean_illuminance};
 use crate::scene::{LightGroup, ObjectClass, Scene, THRESHOLD_CLASS_ID, THRESHOLD_CLASS_NAME};
 use crate::sensor::Catalog;
@@ -65,10 +103,40 @@ use crate::trajectory::{self, TrajectoryParams};
 pub const DEFAULT_FRAMES_PER_SCENE: u32 = 25;
 /// Default binned width of the evaluation images, px.
 pub const DEFAULT_MAX_WIDTH_PX: u32 = 320;
+/// Default agent speed, m/s ([`trajectory::DEFAULT_SPEED_M_PER_S`], which says why).
+pub const DEFAULT_SPEED_M_S: f64 = trajectory::DEFAULT_SPEED_M_PER_S as f64;
 /// ORB features per frame (tacos_facts.md: 2000).
 pub const ORB_FEATURES: usize = 2000;
 /// Pixel count the threshold visibility floor is given for (640 x 480).
 const VGA_PIXELS: f64 = 640.0 * 480.0;
+/// An 8-bit image whose mean is below this is "nearly black" (not usable): about 4 % of full
+/// scale, where even the ISP's mid-grey target (118) is 12x away. Engineering choice.
+pub const USABLE_MIN_MEAN: f64 = 10.0;
+/// An 8-bit image whose mean is above this is "nearly saturated" (not usable). Engineering choice.
+pub const USABLE_MAX_MEAN: f64 = 245.0;
+/// An image with at least this fraction of its pixels at 0 or 255 is not usable.
+pub const USABLE_MAX_CLIPPED_FRACTION: f64 = 0.5;
+/// Default floor of usable images, as a fraction of a scenario's anchor frames (rounded up).
+/// TaCOS's floor is an absolute 100 images out of a frame count it does not publish; with the
+/// default 25 anchors x 2 houses the absolute 100 would zero every candidate. Half the anchors
+/// keeps the rule's intent (a candidate that sees something on too few frames is not scored on
+/// detection and ORB) at any frame count.
+pub const DEFAULT_MIN_USABLE_FRACTION: f64 = 0.5;
+
+/// The evaluator's ray-tracer settings: [`RenderSettings::preview`] (one ray per pixel, no
+/// bounce, stochastic culling of weak lights, one sample per rect light).
+///
+/// Known problem: with one sample per window (rect) light and stochastic light culling, walls
+/// lit through windows get salt-and-pepper render noise by day. ORB takes it for corners and
+/// the detector for sensor noise, so day AP can come out *below* night AP (house 0, 8 anchors,
+/// IMX174 4 mm: day 0.69, night 0.86). A shadow ray to every light and 3 x 3 rect samples
+/// (`light_cull = 0`, `rect_samples_per_axis = 3`) removes it (day 0.90, night 0.86) but made a
+/// two-house evaluation cost about 3x to 10x more render time on this machine, so it is not the
+/// default; set [`EvalConfig::render`] (and `render_name`) to use it.
+#[must_use]
+pub fn eval_render_settings() -> RenderSettings {
+    RenderSettings::preview()
+}
 
 /// Weights of the fitness terms.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
@@ -86,6 +154,28 @@ impl Default for FitnessWeights {
     }
 }
 
+/// An external detector program run under the plug-in protocol of [`crate::detection`].
+///
+/// In `args`, `{gt}` is replaced by the path of the COCO ground-truth file scene-gen writes next
+/// to the images (what `examples/detector_plugin/oracle_detector.py --gt {gt}` answers from) and
+/// `{dir}` by the image folder.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize)]
+pub struct ExternalDetector {
+    pub program: String,
+    pub args: Vec<String>,
+}
+
+impl ExternalDetector {
+    /// Splits a command line on whitespace (no shell quoting): `"python3 det.py --gt {gt}"`.
+    /// `None` for a blank command.
+    #[must_use]
+    pub fn parse(command: &str) -> Option<ExternalDetector> {
+        let mut words = command.split_whitespace().map(str::to_string);
+        let program = words.next()?;
+        Some(ExternalDetector { program, args: words.collect() })
+    }
+}
+
 /// How a candidate is evaluated.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct EvalConfig {
@@ -100,6 +190,20 @@ pub struct EvalConfig {
     pub render_name: String,
     /// Window before a crossing in which a sighting counts, s.
     pub threshold_window_s: f64,
+    /// Agent walking speed, m/s: with the 0.5 s window it sets how far before a door the
+    /// threshold must be seen (0.5 m at the default 1.0 m/s).
+    pub speed_m_s: f64,
+    /// When the agent "crosses" a threshold: `true` (default) when its body (a disc of the
+    /// walk's radius) first touches the sill's footprint, `false` at the first pose beyond the
+    /// door plane (the camera centre past the door). See the module docs.
+    pub crossing_at_contact: bool,
+    /// How raw DN become the 8-bit image ORB and the detectors see ([`crate::isp`]).
+    pub output: OutputRule,
+    /// A scenario with fewer usable images scores the threshold term only (`None`:
+    /// [`DEFAULT_MIN_USABLE_FRACTION`] of its anchor frames, rounded up).
+    pub min_usable_images: Option<u32>,
+    /// An external detector instead of the built-in [`DetectabilityModel`].
+    pub detector: Option<ExternalDetector>,
     pub weights: FitnessWeights,
 }
 
@@ -108,9 +212,14 @@ impl Default for EvalConfig {
         EvalConfig {
             frames_per_scene: DEFAULT_FRAMES_PER_SCENE,
             max_width_px: Some(DEFAULT_MAX_WIDTH_PX),
-            render: RenderSettings::preview(),
+            render: eval_render_settings(),
             render_name: "preview".to_string(),
+            crossing_at_contact: true,
             threshold_window_s: thresholds::DEFAULT_WINDOW_S,
+            speed_m_s: DEFAULT_SPEED_M_S,
+            output: OutputRule::Isp,
+            min_usable_images: None,
+            detector: None,
             weights: FitnessWeights::default(),
         }
     }
@@ -123,7 +232,7 @@ pub struct ScenarioScore {
     pub threshold_accuracy: f64,
     pub thresholds_seen: u32,
     pub thresholds_missed: u32,
-    /// AP@0.5 of the built-in detector; 0 when no frame had ground truth.
+    /// AP@0.5 of the detector (built-in or external); 0 when no frame had ground truth.
     pub ap50: f64,
     pub ground_truth_objects: usize,
     pub mean_inliers: f64,
@@ -131,6 +240,13 @@ pub struct ScenarioScore {
     pub mean_keypoints: f64,
     /// Anchor frames scored.
     pub frames: usize,
+    /// Anchor frames whose 8-bit image is neither nearly black nor saturated and that hold at
+    /// least one counted ground-truth object.
+    pub usable_images: usize,
+    /// The floor `usable_images` was held to.
+    pub min_usable_images: usize,
+    /// True when `usable_images < min_usable_images`: the fitness is the threshold term only.
+    pub threshold_only: bool,
     pub fitness: f64,
 }
 
@@ -149,13 +265,36 @@ pub struct Scenarios {
     pub night: ScenarioScore,
 }
 
+/// Where the time of one evaluation went, seconds. `wall` is elapsed time; the stage figures
+/// are summed over worker threads (so they can add up to more than `wall` on several cores);
+/// `plugin` is the external detector's elapsed time.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct Timing {
+    pub wall: f64,
+    /// House generation, walk planning and light probes.
+    pub setup: f64,
+    /// Ray tracing.
+    pub render: f64,
+    /// Sensor simulation and the 8-bit output rule.
+    pub sensor: f64,
+    /// Ground truth and the built-in detector (or writing images for the external one).
+    pub detection: f64,
+    /// ORB extraction, matching and RANSAC.
+    pub orb: f64,
+    pub plugin: f64,
+}
+
 /// A candidate's evaluation (the `--json` output).
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Evaluation {
     pub camera: CameraSpec,
     pub seeds: Vec<u64>,
+    pub config: EvalConfig,
     pub scenarios: Scenarios,
     pub fitness: Fitness,
+    /// Time breakdown (not deterministic: the CLI prints it only with `--timing`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub timing_s: Option<Timing>,
 }
 
 /// Why a candidate could not be evaluated.
@@ -167,6 +306,8 @@ pub enum EvalError {
     NoSeeds,
     #[error("frames_per_scene must be at least 1")]
     NoFrames,
+    #[error("speed_m_s must be finite and positive, got {0}")]
+    BadSpeed(f64),
     #[error("libraries: {0}")]
     Library(String),
     #[error("house of seed {seed}: {why}")]
@@ -187,6 +328,10 @@ pub enum EvalError {
     NoLight { group: LightGroup },
     #[error("COCO evaluation: {0}")]
     Coco(#[from] coco_eval::CocoError),
+    #[error("external detector: {0}")]
+    Plugin(#[from] PluginError),
+    #[error("writing detector input {path}: {why}")]
+    Io { path: String, why: String },
 }
 
 /// The light scale of each scenario: `(group, nominal lux, scale, target lux)`, the lights of
@@ -237,14 +382,16 @@ pub fn evaluate(spec: &CameraSpec, seeds: &[u64], config: &EvalConfig) -> Result
 /// As [`evaluate`].
 pub fn evaluate_traced(spec: &CameraSpec, seeds: &[u64], config: &EvalConfig) -> Result<(Evaluation, bool), EvalError> {
     let (spec, resolved) = prepare(spec, seeds, config)?;
-    // Normalised key: the resolved spec (canonical sensor name, defaults filled in) as JSON.
+    // Normalised key: the resolved spec (canonical sensor name, defaults filled in) as JSON,
+    // and every serialised configuration field (speed, output rule, usable floor, detector...).
     let mut key_spec = resolved.spec.clone();
     key_spec.sensor = resolved.sensor.model.clone();
     let key = format!(
-        "{}|{:?}|{}",
+        "{}|{:?}|{}|{:?}",
         serde_json::to_string(&key_spec).unwrap_or_default(),
         seeds,
-        serde_json::to_string(config).unwrap_or_default()
+        serde_json::to_string(config).unwrap_or_default(),
+        config.render
     );
     let cache = CACHE.get_or_init(|| Mutex::new(HashMap::new()));
     if let Some(hit) = cache.lock().unwrap_or_else(std::sync::PoisonError::into_inner).get(&key) {
@@ -278,8 +425,43 @@ fn prepare(spec: &CameraSpec, seeds: &[u64], config: &EvalConfig) -> Result<(Cam
     if config.frames_per_scene == 0 {
         return Err(EvalError::NoFrames);
     }
+    if !(config.speed_m_s.is_finite() && config.speed_m_s > 0.0) {
+        return Err(EvalError::BadSpeed(config.speed_m_s));
+    }
     let resolved = spec.resolve(&Catalog::embedded())?;
     Ok((spec, resolved))
+}
+
+/// The time the agent's body first touches the sill footprint `lo..hi` on its way to crossing
+/// pose `pose_index`: going back from that pose over the poses whose centre lies within the
+/// walk's radius of the footprint, then interpolated linearly in distance between the last pose
+/// outside and the first inside (poses are 0.25 m apart).
+fn contact_time_s(walk: &trajectory::Trajectory, pose_index: usize, lo: glam::Vec2, hi: glam::Vec2) -> f64 {
+    let r = walk.radius_m;
+    let dist = |k: usize| {
+        let p = walk.poses[k].position.truncate();
+        (lo - p).max(p - hi).max(glam::Vec2::ZERO).length()
+    };
+    let mut k = pose_index.min(walk.poses.len().saturating_sub(1));
+    while k > 0 && dist(k - 1) <= r {
+        k -= 1;
+    }
+    let t_k = f64::from(walk.poses[k].time_s);
+    if k == 0 || dist(k) > r {
+        return t_k;
+    }
+    let (d0, d1) = (f64::from(dist(k - 1)), f64::from(dist(k)));
+    let t0 = f64::from(walk.poses[k - 1].time_s);
+    let frac = if d0 > d1 { (d0 - f64::from(r)) / (d0 - d1) } else { 1.0 };
+    t0 + frac.clamp(0.0, 1.0) * (t_k - t0)
+}
+
+/// Whether an anchor's 8-bit image shows anything (module docs, "usable images").
+fn image_usable(grey: &[u8]) -> bool {
+    let n = grey.len().max(1) as f64;
+    let mean = grey.iter().map(|&v| f64::from(v)).sum::<f64>() / n;
+    let clipped = grey.iter().filter(|&&v| v == 0 || v == 255).count() as f64 / n;
+    (USABLE_MIN_MEAN..=USABLE_MAX_MEAN).contains(&mean) && clipped < USABLE_MAX_CLIPPED_FRACTION
 }
 
 /// What one rendered pose contributes.
@@ -287,11 +469,15 @@ struct PoseResult {
     /// Threshold instance id -> visible pixels.
     thresholds: Vec<(u32, u32)>,
     time_s: f64,
-    /// Per scenario: grey image (anchors and successors only).
+    /// Per scenario: 8-bit image (anchors and successors only).
     grey: Vec<Vec<u8>>,
-    /// Ground truth and per-scenario detections (anchors only).
+    /// Ground truth and per-scenario built-in detections (anchors only).
     gt: Option<Vec<crate::detection::GtObject>>,
     detections: Vec<Vec<crate::detection::Detection>>,
+    /// Per scenario: the anchor's image is usable.
+    usable: Vec<bool>,
+    /// Thread-seconds: render, sensor, detection.
+    times: [f64; 3],
 }
 
 /// Per-scenario accumulators.
@@ -304,23 +490,41 @@ struct Acc {
     keypoints: f64,
     pairs: usize,
     frames: usize,
+    usable: usize,
     gt: CocoGroundTruth,
     dets: Vec<DetectionRecord>,
 }
 
-fn to_grey(cap: &Capture) -> Vec<u8> {
-    if cap.channels == 3 {
-        cap.dn
-            .chunks_exact(3)
-            .map(|c| {
-                let y = 0.2126 * f64::from(c[0]) + 0.7152 * f64::from(c[1]) + 0.0722 * f64::from(c[2]);
-                y.round().clamp(0.0, 255.0) as u8
-            })
-            .collect()
-    } else {
-        let shift = cap.bits.saturating_sub(8);
-        cap.dn.iter().map(|&v| (v >> shift).min(255) as u8).collect()
+/// A scratch folder for the external detector's images, removed when dropped.
+struct ScratchDir(PathBuf);
+
+impl ScratchDir {
+    fn new() -> Result<ScratchDir, EvalError> {
+        static N: AtomicU64 = AtomicU64::new(0);
+        let nanos = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_nanos());
+        let dir = std::env::temp_dir().join(format!(
+            "scene-gen-evaluate-{}-{}-{nanos}",
+            std::process::id(),
+            N.fetch_add(1, Ordering::SeqCst)
+        ));
+        std::fs::create_dir_all(&dir).map_err(|e| io_error(&dir, &e))?;
+        Ok(ScratchDir(dir))
     }
+}
+
+impl Drop for ScratchDir {
+    fn drop(&mut self) {
+        // Best effort: a leftover temp folder is harmless.
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+fn io_error(path: &Path, e: &dyn std::fmt::Display) -> EvalError {
+    EvalError::Io { path: path.display().to_string(), why: e.to_string() }
+}
+
+fn secs(t: Instant) -> f64 {
+    t.elapsed().as_secs_f64()
 }
 
 #[allow(clippy::too_many_lines)]
@@ -331,6 +535,8 @@ fn compute(
     config: &EvalConfig,
 ) -> Result<Evaluation, EvalError> {
     COMPUTED.fetch_add(1, Ordering::SeqCst);
+    let wall = Instant::now();
+    let mut timing = Timing::default();
     let library = Library::embedded().map_err(|e| EvalError::Library(e.to_string()))?;
     let gains = [spec.gain_day_db, spec.gain_night_db];
     let names = ["day", "night"];
@@ -350,15 +556,35 @@ fn compute(
     let tcfg = ThresholdConfig { window_s: config.threshold_window_s, min_visible_px: min_px };
     let model = DetectabilityModel::default();
     let orb = Orb::with_features(ORB_FEATURES);
+    let scratch = config.detector.as_ref().map(|_| ScratchDir::new()).transpose()?;
+    let mut requests: Vec<(usize, PluginRequest)> = Vec::new();
     let mut next_image_id = 1u64;
 
     for &seed in seeds {
+        let setup = Instant::now();
         let scene: Scene = generate(&GeneratorConfig { seed, ..GeneratorConfig::default() }, &library)
             .map_err(|e| EvalError::Generate { seed, why: e.to_string() })?;
-        let params = TrajectoryParams { height_m: spec.height_m, ..TrajectoryParams::default() };
+        let params = TrajectoryParams {
+            height_m: spec.height_m,
+            speed_m_per_s: config.speed_m_s as f32,
+            ..TrajectoryParams::default()
+        };
         let walk = trajectory::plan(&scene, &params).map_err(|source| EvalError::Trajectory { seed, source })?;
         let renderer = Renderer::new(&scene, config.render);
         let scales = scenario_light_scales(&renderer, seed, &[LightGroup::Day, LightGroup::Night])?;
+        let isps: Vec<Isp> = scales
+            .iter()
+            .enumerate()
+            .map(|(s, &(_, _, _, lux))| {
+                Isp::for_scenario(
+                    resolved,
+                    gains[s],
+                    f64::from(lux),
+                    if spec.noise == NoiseKind::Affine { 3 } else { 1 },
+                )
+            })
+            .collect();
+        timing.setup += secs(setup);
         let n = walk.poses.len();
         let k = (config.frames_per_scene as usize).min(n);
         let anchors: Vec<usize> = if k <= 1 {
@@ -379,8 +605,24 @@ fn compute(
                 *r = (*r).max(1);
             }
         }
-        for c in &walk.crossings {
-            let t = f64::from(c.time_s);
+        let crossings: Vec<Crossing> = walk
+            .crossings
+            .iter()
+            .filter_map(|c| {
+                scene.thresholds.get(c.threshold_id as usize).map(|t| Crossing {
+                    instance_id: t.instance_id,
+                    time_s: if config.crossing_at_contact {
+                        contact_time_s(&walk, c.pose_index, t.min.truncate(), t.max.truncate())
+                    } else {
+                        f64::from(c.time_s)
+                    },
+                })
+            })
+            .collect();
+        // Every pose in the window before a crossing (the same test as threshold_score, on the
+        // same f64 times, so no window pose is left unrendered).
+        for c in &crossings {
+            let t = c.time_s;
             for (i, p) in walk.poses.iter().enumerate() {
                 let pt = f64::from(p.time_s);
                 if pt <= t && pt >= t - config.threshold_window_s {
@@ -390,12 +632,15 @@ fn compute(
         }
         let threshold_ids: BTreeSet<u32> = scene.thresholds.iter().map(|t| t.instance_id).collect();
         let jobs: Vec<(usize, u8)> = roles.into_iter().collect();
+        let builtin = config.detector.is_none();
         let results: Vec<Result<PoseResult, RenderError>> = jobs
             .par_iter()
             .map(|&(i, role)| {
                 let pose = walk.poses[i];
                 let camera = resolved.camera_at(&pose);
+                let t0 = Instant::now();
                 let frame: Frame = renderer.render(&camera)?;
+                let mut times = [secs(t0), 0.0, 0.0];
                 let mut counts: BTreeMap<u32, u32> = BTreeMap::new();
                 for &id in &frame.instance_id {
                     if threshold_ids.contains(&id) {
@@ -408,62 +653,73 @@ fn compute(
                     grey: Vec::new(),
                     gt: None,
                     detections: Vec::new(),
+                    usable: Vec::new(),
+                    times,
                 };
                 if role == 0 {
                     return Ok(out);
                 }
+                let t1 = Instant::now();
                 let gt =
                     (role == 2).then(|| frame_ground_truth(&frame, &scene, &camera, &GroundTruthConfig::default()));
+                times[2] += secs(t1);
                 for (s, &(_, _, scale, _)) in scales.iter().enumerate() {
+                    let t1 = Instant::now();
                     let radiance = if s == 0 { frame.mix(scale, 0.0) } else { frame.mix(0.0, scale) };
                     let frame_seed = crate::rng::fnv1a64(format!("evaluate/{seed}/{i}/{}", names[s]).as_bytes());
-                    let cap = capture(resolved, &camera, &radiance, gains[s], seed, frame_seed);
-                    let grey = to_grey(&cap);
+                    let optics = OpticsInput {
+                        depth_m: &frame.depth_m,
+                        velocity_m_s: agent_velocity(&resolved.spec, pose.yaw_deg, params.speed_m_per_s),
+                    };
+                    let cap = capture_frame(resolved, &camera, &radiance, Some(optics), gains[s], seed, frame_seed);
+                    let grey = to_8bit(&cap, config.output, &isps[s]);
+                    times[1] += secs(t1);
                     if let Some(objects) = &gt {
-                        let image: Vec<f32> = grey.iter().map(|&v| f32::from(v)).collect();
-                        let input = DetectorInput {
-                            image_dn: &image,
-                            width: cap.width,
-                            height: cap.height,
-                            instance_id: &frame.instance_id,
-                            objects,
-                            noise_std_dn: None,
-                            frame_seed,
-                        };
-                        out.detections.push(model.detect(&input));
+                        let t1 = Instant::now();
+                        out.usable.push(image_usable(&grey) && objects.iter().any(|o| o.counted));
+                        if builtin {
+                            let image: Vec<f32> = grey.iter().map(|&v| f32::from(v)).collect();
+                            let input = DetectorInput {
+                                image_dn: &image,
+                                width: cap.width,
+                                height: cap.height,
+                                instance_id: &frame.instance_id,
+                                objects,
+                                noise_std_dn: None,
+                                frame_seed,
+                            };
+                            out.detections.push(model.detect(&input));
+                        }
+                        times[2] += secs(t1);
                     }
                     out.grey.push(grey);
                 }
                 out.gt = gt;
+                out.times = times;
                 Ok(out)
             })
             .collect();
         let mut by_pose: BTreeMap<usize, PoseResult> = BTreeMap::new();
         for (&(i, _), r) in jobs.iter().zip(results) {
-            by_pose.insert(i, r.map_err(|source| EvalError::Render { seed, source })?);
+            let r = r.map_err(|source| EvalError::Render { seed, source })?;
+            timing.render += r.times[0];
+            timing.sensor += r.times[1];
+            timing.detection += r.times[2];
+            by_pose.insert(i, r);
         }
 
         // Thresholds (geometric: the same in both scenarios).
         let vis: Vec<FrameVisibility> =
             by_pose.values().map(|p| FrameVisibility { time_s: p.time_s, visible_px: p.thresholds.clone() }).collect();
-        let crossings: Vec<Crossing> = walk
-            .crossings
-            .iter()
-            .filter_map(|c| {
-                scene
-                    .thresholds
-                    .get(c.threshold_id as usize)
-                    .map(|t| Crossing { instance_id: t.instance_id, time_s: f64::from(c.time_s) })
-            })
-            .collect();
         let ts = thresholds::threshold_score(&vis, &crossings, &tcfg);
 
         // ORB pairs, in parallel over (scenario, anchor).
         let pair_jobs: Vec<(usize, usize)> =
             (0..2).flat_map(|s| anchors.iter().filter(|&&a| a + 1 < n).map(move |&a| (s, a))).collect();
-        let pair_scores: Vec<(usize, f64, f64, f64)> = pair_jobs
+        let pair_scores: Vec<(usize, f64, f64, f64, f64)> = pair_jobs
             .par_iter()
             .map(|&(s, a)| {
+                let t0 = Instant::now();
                 let ga = &by_pose[&a].grey[s];
                 let gb = &by_pose[&(a + 1)].grey[s];
                 let (ka, da) = orb.detect_and_compute((ga.as_slice(), w as usize, h as usize)).unwrap_or_default();
@@ -476,35 +732,43 @@ fn compute(
                 let inliers = inl.iter().filter(|&&b| b).count() as f64;
                 let kp = ka.len() as f64;
                 let ratio = if inliers + kp > 0.0 { inliers / (inliers + kp) } else { 0.0 };
-                (s, inliers, ratio, kp)
+                (s, inliers, ratio, kp, secs(t0))
             })
             .collect();
-        for (s, inliers, ratio, kp) in pair_scores {
+        for (s, inliers, ratio, kp, t) in pair_scores {
             let acc = &mut accs[s];
             acc.inliers += inliers;
             acc.ratio += ratio;
             acc.keypoints += kp;
             acc.pairs += 1;
+            timing.orb += t;
         }
 
-        // Detection: every anchor, in pose order.
+        // Detection: every anchor, in pose order; one image id per (anchor, scenario).
         for &a in &anchors {
             let p = &by_pose[&a];
-            let image_id = next_image_id;
-            next_image_id += 1;
             let objects = p.gt.as_deref().unwrap_or(&[]);
             for (s, acc) in accs.iter_mut().enumerate() {
+                let image_id = next_image_id;
+                next_image_id += 1;
+                let file_name = format!("seed{seed}_pose{a:05}_{}.png", names[s]);
                 acc.frames += 1;
-                acc.gt.images.push(CocoImage {
-                    id: image_id,
-                    width: w,
-                    height: h,
-                    file_name: format!("seed{seed}_pose{a:05}_{}", names[s]),
-                });
+                acc.usable += usize::from(p.usable.get(s).copied().unwrap_or(false));
+                acc.gt.images.push(CocoImage { id: image_id, width: w, height: h, file_name: file_name.clone() });
                 let first = acc.gt.annotations.len() as u64 + 1;
                 acc.gt.annotations.extend(to_annotations(objects, image_id, first));
                 if let Some(dets) = p.detections.get(s) {
                     acc.dets.extend(dets.iter().map(|d| d.record(image_id)));
+                }
+                if let Some(dir) = &scratch {
+                    let t0 = Instant::now();
+                    let path = dir.0.join(&file_name);
+                    let img = image::GrayImage::from_raw(w, h, p.grey[s].clone())
+                        .ok_or_else(|| io_error(&path, &"image size mismatch"))?;
+                    img.save(&path).map_err(|e| io_error(&path, &e))?;
+                    requests
+                        .push((s, PluginRequest { image_id, path: path.display().to_string(), width: w, height: h }));
+                    timing.detection += secs(t0);
                 }
             }
         }
@@ -512,6 +776,40 @@ fn compute(
             acc.seen += ts.seen;
             acc.missed += ts.missed;
         }
+    }
+
+    if let (Some(det), Some(dir)) = (&config.detector, &scratch) {
+        let t0 = Instant::now();
+        // Both scenarios' ground truth in one COCO file (ids are unique across them).
+        let mut all = CocoGroundTruth { categories: categories.clone(), ..CocoGroundTruth::default() };
+        for acc in &accs {
+            all.images.extend(acc.gt.images.iter().cloned());
+            all.annotations.extend(acc.gt.annotations.iter().cloned());
+        }
+        for (k, a) in all.annotations.iter_mut().enumerate() {
+            a.id = k as u64 + 1;
+        }
+        let gt_path = dir.0.join("ground_truth.json");
+        let text = all.to_json().map_err(|e| io_error(&gt_path, &e))?;
+        std::fs::write(&gt_path, text).map_err(|e| io_error(&gt_path, &e))?;
+        let args: Vec<String> = det
+            .args
+            .iter()
+            .map(|a| a.replace("{gt}", &gt_path.display().to_string()).replace("{dir}", &dir.0.display().to_string()))
+            .collect();
+        let reqs: Vec<PluginRequest> = requests.iter().map(|(_, r)| r.clone()).collect();
+        let records = plugin::run(&det.program, &args, &reqs)?;
+        let scenario_of: HashMap<u64, usize> = requests.iter().map(|(s, r)| (r.image_id, *s)).collect();
+        for rec in records {
+            if let Some(&s) = scenario_of.get(&rec.image_id) {
+                accs[s].dets.push(rec);
+            }
+        }
+        // Sorted by image then score so the result does not depend on the detector's answer order.
+        for acc in &mut accs {
+            acc.dets.sort_by(|a, b| a.image_id.cmp(&b.image_id).then(b.score.total_cmp(&a.score)));
+        }
+        timing.plugin = secs(t0);
     }
 
     let weights = config.weights;
@@ -524,10 +822,18 @@ fn compute(
         let pairs = acc.pairs.max(1) as f64;
         let mean_inliers = acc.inliers / pairs;
         let inlier_ratio = acc.ratio / pairs;
-        let fitness = weights.threshold * threshold_accuracy
-            + weights.ap50 * ap50
-            + weights.inliers * mean_inliers
-            + weights.inlier_ratio * inlier_ratio;
+        let min_usable = config
+            .min_usable_images
+            .map_or_else(|| (DEFAULT_MIN_USABLE_FRACTION * acc.frames as f64).ceil() as usize, |m| m as usize);
+        let threshold_only = acc.usable < min_usable;
+        let fitness = if threshold_only {
+            weights.threshold * threshold_accuracy
+        } else {
+            weights.threshold * threshold_accuracy
+                + weights.ap50 * ap50
+                + weights.inliers * mean_inliers
+                + weights.inlier_ratio * inlier_ratio
+        };
         scores.push(ScenarioScore {
             threshold_accuracy,
             thresholds_seen: acc.seen,
@@ -538,11 +844,22 @@ fn compute(
             inlier_ratio,
             mean_keypoints: acc.keypoints / pairs,
             frames: acc.frames,
+            usable_images: acc.usable,
+            min_usable_images: min_usable,
+            threshold_only,
             fitness,
         });
     }
     let night = scores.pop().expect("two scenarios");
     let day = scores.pop().expect("two scenarios");
     let fitness = Fitness { day: day.fitness, night: night.fitness, mean: 0.5 * (day.fitness + night.fitness) };
-    Ok(Evaluation { camera: spec.clone(), seeds: seeds.to_vec(), scenarios: Scenarios { day, night }, fitness })
+    timing.wall = secs(wall);
+    Ok(Evaluation {
+        camera: spec.clone(),
+        seeds: seeds.to_vec(),
+        config: config.clone(),
+        scenarios: Scenarios { day, night },
+        fitness,
+        timing_s: Some(timing),
+    })
 }

@@ -76,6 +76,7 @@ pub mod export;
 pub mod floorplan;
 pub mod gap;
 pub mod generate;
+pub mod isp;
 pub mod library;
 pub mod lights;
 pub mod manifest;

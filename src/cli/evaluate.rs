@@ -4,8 +4,9 @@
 use anyhow::anyhow;
 use clap::Args;
 use scene_gen::camera_spec::CameraSpec;
-use scene_gen::evaluate::{EvalConfig, EvalError, Evaluation, ScenarioScore, evaluate};
-use scene_gen::render::RenderSettings;
+use scene_gen::evaluate::{EvalConfig, EvalError, Evaluation, ExternalDetector, ScenarioScore, evaluate};
+use scene_gen::isp::OutputRule;
+use scene_gen::seeds::{SeedRange, SeedsError};
 
 use super::{CliError, bad_input, failure};
 
@@ -23,41 +24,47 @@ pub struct EvaluateArgs {
     /// Bin the sensor down to at most this width in pixels (keeps the field of view).
     #[arg(long, default_value_t = scene_gen::evaluate::DEFAULT_MAX_WIDTH_PX)]
     pub max_width: u32,
+    /// Agent walking speed, m/s (the 0.5 s threshold window is 0.5 m of walk at 1.0 m/s).
+    #[arg(long, default_value_t = scene_gen::evaluate::DEFAULT_SPEED_M_S)]
+    pub speed_m_s: f64,
+    /// 8-bit output rule: `isp` (black level, fixed gain per scenario, sRGB curve) or `top_bits`.
+    #[arg(long, default_value = "isp")]
+    pub output: String,
+    /// Usable images a scenario needs to be scored on detection and ORB (default: half its
+    /// anchor frames, rounded up).
+    #[arg(long)]
+    pub min_usable: Option<u32>,
+    /// External detector command (split on whitespace) run under the plug-in protocol on the
+    /// anchor frames; `{gt}` is replaced by the COCO ground-truth file written next to them.
+    #[arg(long)]
+    pub detector: Option<String>,
+    /// Add a `timing_s` breakdown to the output (not deterministic).
+    #[arg(long)]
+    pub timing: bool,
     /// Print the evaluation as JSON only.
     #[arg(long)]
     pub json: bool,
 }
 
-/// `A..B`, `A..=B` or `N`.
+/// `A..B`, `A..=B` or `N` ([`scene_gen::seeds`]).
 fn parse_seeds(text: &str) -> Result<Vec<u64>, CliError> {
-    let bad = || bad_input(anyhow!("--seeds '{text}': expected A..B, A..=B or a seed"));
-    let t = text.trim();
-    let seeds: Vec<u64> = if let Some((a, b)) = t.split_once("..=") {
-        let (a, b): (u64, u64) = (a.trim().parse().map_err(|_| bad())?, b.trim().parse().map_err(|_| bad())?);
-        (a..=b).collect()
-    } else if let Some((a, b)) = t.split_once("..") {
-        let (a, b): (u64, u64) = (a.trim().parse().map_err(|_| bad())?, b.trim().parse().map_err(|_| bad())?);
-        (a..b).collect()
-    } else {
-        vec![t.parse().map_err(|_| bad())?]
-    };
-    if seeds.is_empty() {
-        return Err(bad_input(anyhow!("--seeds '{text}' is empty")));
-    }
-    Ok(seeds)
+    let range: SeedRange = text.parse().map_err(|e: SeedsError| bad_input(anyhow!("--{e}")))?;
+    Ok(range.iter().collect())
 }
 
 fn row(name: &str, s: &ScenarioScore) -> String {
     format!(
-        "{name:<6} {:>9.3} {:>7}/{:<3} {:>7.3} {:>9.1} {:>8.3} {:>7} {:>8.3}",
+        "{name:<6} {:>9.3} {:>7}/{:<3} {:>7.3} {:>9.1} {:>8.3} {:>4}/{:<3}{:>8.3}{}",
         s.threshold_accuracy,
         s.thresholds_seen,
         s.thresholds_seen + s.thresholds_missed,
         s.ap50,
         s.mean_inliers,
         s.inlier_ratio,
+        s.usable_images,
         s.frames,
-        s.fitness
+        s.fitness,
+        if s.threshold_only { "  (threshold only: too few usable images)" } else { "" }
     )
 }
 
@@ -66,11 +73,18 @@ fn summary(e: &Evaluation) -> String {
         "camera {} (focal {} mm, pitch {} deg), seeds {:?}\n",
         e.camera.sensor, e.camera.focal_mm, e.camera.pitch_deg, e.seeds
     );
-    out.push_str("scene  threshold    seen     AP50   inliers    ratio  frames  fitness\n");
+    out.push_str("scene  threshold    seen     AP50   inliers    ratio  usable  fitness\n");
     out.push_str(&row("day", &e.scenarios.day));
     out.push('\n');
     out.push_str(&row("night", &e.scenarios.night));
     out.push('\n');
+    if let Some(t) = &e.timing_s {
+        out.push_str(&format!(
+            "time: {:.1} s wall; thread-seconds: setup {:.1}, render {:.1}, sensor {:.1}, detection {:.1}, orb {:.1}; \
+             plugin {:.1} s\n",
+            t.wall, t.setup, t.render, t.sensor, t.detection, t.orb, t.plugin
+        ));
+    }
     out.push_str(&format!(
         "fitness: day {:.3}, night {:.3}, mean {:.3}\n",
         e.fitness.day, e.fitness.night, e.fitness.mean
@@ -87,16 +101,32 @@ pub fn run(args: &EvaluateArgs) -> Result<(), CliError> {
     if args.max_width == 0 {
         return Err(bad_input(anyhow!("--max-width must be at least 1")));
     }
+    if !(args.speed_m_s.is_finite() && args.speed_m_s > 0.0) {
+        return Err(bad_input(anyhow!("--speed-m-s must be a positive number of m/s")));
+    }
+    let output = OutputRule::parse(&args.output).map_err(|e| bad_input(anyhow!("--output: {e}")))?;
+    let detector = match &args.detector {
+        None => None,
+        Some(cmd) => {
+            Some(ExternalDetector::parse(cmd).ok_or_else(|| bad_input(anyhow!("--detector: the command is empty")))?)
+        }
+    };
     let config = EvalConfig {
         frames_per_scene: args.frames,
         max_width_px: Some(args.max_width),
-        render: RenderSettings::preview(),
+        speed_m_s: args.speed_m_s,
+        output,
+        min_usable_images: args.min_usable,
+        detector,
         ..EvalConfig::default()
     };
-    let evaluation = evaluate(&spec, &seeds, &config).map_err(|e| match e {
-        EvalError::Spec(_) | EvalError::NoSeeds | EvalError::NoFrames => bad_input(e),
+    let mut evaluation = evaluate(&spec, &seeds, &config).map_err(|e| match e {
+        EvalError::Spec(_) | EvalError::NoSeeds | EvalError::NoFrames | EvalError::BadSpeed(_) => bad_input(e),
         other => failure(other),
     })?;
+    if !args.timing {
+        evaluation.timing_s = None;
+    }
     if args.json {
         let mut json = serde_json::to_string_pretty(&evaluation).map_err(failure)?;
         json.push('\n');
