@@ -375,35 +375,10 @@ pub fn seed_dir(seed: u64) -> String {
     format!("seed_{seed:010}")
 }
 
-/// Writes `bytes` to `path` atomically, safe when runs on other machines write the same file
-/// at the same moment (`dataset.json`, the merged COCO files). [`crate::export::write_atomic`] names its
-/// temporary file after the process id, and shard processes on different machines often share
-/// one (every container's first process is pid 1), so two of them could write the same
-/// temporary file on a shared volume. The temporary file here also carries the time and a
-/// per-process counter. Every writer of a shared file writes the same bytes, so whichever
-/// rename lands last, the file is whole and right.
+/// Writes a file several shard runs may write at once ([`crate::export::write_atomic`] names
+/// its temporary files uniquely across machines, and every writer writes the same bytes).
 fn write_shared(path: &Path, bytes: &[u8]) -> Result<(), DatasetError> {
-    use std::io::Write;
-    use std::sync::atomic::{AtomicU64, Ordering};
-    static COUNTER: AtomicU64 = AtomicU64::new(0);
-    let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
-    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-    let nanos = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_nanos());
-    let host = std::env::var("HOSTNAME").unwrap_or_default();
-    let unique = crate::rng::fnv1a64(
-        format!("{host}/{}/{nanos}/{}", std::process::id(), COUNTER.fetch_add(1, Ordering::Relaxed)).as_bytes(),
-    );
-    let tmp = dir.join(format!(".{name}.tmp{unique:016x}"));
-    let result = (|| {
-        let mut file = std::fs::File::create(&tmp)?;
-        file.write_all(bytes)?;
-        std::fs::rename(&tmp, path)
-    })();
-    if let Err(source) = result {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(crate::export::WriteError { path: path.to_path_buf(), source }.into());
-    }
-    Ok(())
+    Ok(crate::export::write_atomic(path, bytes)?)
 }
 
 /// What a run reports as it goes (a progress bar, or nothing).
