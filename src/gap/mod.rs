@@ -31,8 +31,9 @@
 //! rather than 13.4 DN) and scored by its Poisson deviance ([`stats::count_deviance`]) rather
 //! than a chi-square; the crop's ~6 hot pixels (excess 0..15 DN against 1.6 DN of noise) leave
 //! one pixel above the threshold, at 6.8 sigma: deviance ~18 against the 2-parameter penalty of
-//! ~19 at 115 statistics, so `hot_pixels` is still not named there (not yet checked on a full
-//! frame, whose ~100 hot pixels should clear it).
+//! ~19 at 115 statistics, so `hot_pixels` is still not named there. On a full 640x480 set
+//! written by the generator with set 003's camera (100 hot pixels) it is named, with the other
+//! five (docs/BENCHMARKS.md).
 //!
 //! Inputs ([`run_inputs`]): one descriptor; several descriptors of one camera at different gains
 //! (gain groups; the gains are measured from the response, [`load_acquisitions`]), where
