@@ -63,6 +63,7 @@ fn hidden_effects_are_named_and_the_gap_shrinks() {
         }
         let _ = std::fs::remove_dir_all(&case_dir);
     }
+    println!("single-gain hidden-effect hit rate: {hits}/40; misses: {misses:?}");
     assert!(clean_false.is_empty(), "effects named on clean sets: {clean_false:?}");
     assert!(hits >= 34, "hit rate {hits}/40; misses:\n{}", misses.join("\n"));
 }
@@ -111,8 +112,9 @@ fn fitted_parameters_are_close_to_the_truth() {
 /// photon-transfer step (17 of 50) to keep the test profile under ~20 s. It must name the
 /// documented effects the crop shows clearly (black level, nonlinearity, DSNU, its periodic
 /// pattern, PRNU), nothing outside the documented list, and shrink the gap by 99 %. Its ~6 hot
-/// pixels (excess 0..15 DN against a 2.2 DN spatial spread) leave no tail above the 6-sigma
-/// threshold, so hot_pixels is not required; the in-crop fall-off (~0.2 %) may be named.
+/// pixels (excess 0..15 DN against 1.6 DN of noise once the waves are removed) leave one pixel
+/// above the 6-sigma threshold, whose deviance (~18) falls short of the 2-parameter penalty, so
+/// hot_pixels is not required; the in-crop fall-off (~0.2 %) may be named.
 #[test]
 fn set003_names_its_documented_effects() {
     let desc = data_dir().join("emva1288-set003-crop/EMVA1288_Data.txt");
@@ -231,10 +233,10 @@ fn cli_refuses_bad_input_without_output() {
 fn minimal_descriptor_without_stacks() {
     let dir = temp_dir("minimal");
     let case = testdata::random_case(5, 0);
-    let block = |light, n: usize| gap::Block { light, exposure_s: 0.01, frames: vec![Vec::new(); n] };
+    let block = |light, n: usize| gap::Block { light, exposure_s: 0.01, group: 0, frames: vec![Vec::new(); n] };
     let mut blocks: Vec<gap::Block> = (1..=4).map(|i| block(gap::Light::Bright(2000.0 * f64::from(i)), 2)).collect();
     blocks.push(block(gap::Light::Dark, 2));
-    let layout = gap::Acquisition { width: 16, height: 12, bits: 12, blocks };
+    let layout = gap::Acquisition { width: 16, height: 12, bits: 12, blocks, gains_db: vec![0.0] };
     let desc = testdata::write_dataset(&dir, &case.model, &layout, 9).unwrap();
     let r = gap::run(&desc, None, &GapOptions::default()).unwrap();
     assert!(r.measured.dark_stack.is_none() && r.measured.bright_stack.is_none());
@@ -242,4 +244,148 @@ fn minimal_descriptor_without_stacks() {
     assert!(r.trials.iter().all(|t| !["dsnu", "prnu", "hot_pixels", "periodic_pattern"].contains(&t.effect.as_str())));
     let k = r.final_model.sensor.system_gain_dn_per_e / case.model.sensor.system_gain_dn_per_e;
     assert!((k - 1.0).abs() < 0.15, "K ratio {k}");
+}
+
+/// Names sorted, for comparison.
+fn sorted(v: impl IntoIterator<Item = String>) -> Vec<String> {
+    let mut v: Vec<String> = v.into_iter().collect();
+    v.sort();
+    v
+}
+
+/// Read noise split across gains: 12 random cases over two gains (0 and 12 dB), written as one
+/// descriptor per gain (the gains are not written: the workflow measures them from the
+/// response). Every case has a black level (see `testdata::random_multigain_case`); 4 have
+/// nothing else, 4 hide `read_noise_split`, 4 hide it and one more effect. A hit: exactly the
+/// hidden effects named. Prints the hit rate; asserts `read_noise_split` never named where it
+/// is not hidden, found in at least 7 of the 8 cases that hide it, and at least 8 of 12 exact
+/// hits. Measured: 8 of 12; the split found in 7 of 8 (missed next to a hidden saturation,
+/// where row_column_noise was named instead), and an extra `dsnu` named in 3 two-gain sets
+/// (not yet understood: a suspect is that DSNU widens the simulated sampling variance of the
+/// 12 dB frame means, which lowers their chi-square without fitting them). The second gain is
+/// measured within 0.05 dB.
+#[test]
+fn read_noise_split_is_named_across_gains() {
+    let dir = temp_dir("multigain");
+    let (mut hits, mut misses, mut split_found) = (0, Vec::new(), 0);
+    for seed in 0..12u64 {
+        let kind = match seed % 3 {
+            0 => None,
+            1 => Some(0),
+            _ => Some(1),
+        };
+        let case = testdata::random_multigain_case(300 + seed, kind);
+        let layout = testdata::layout_gains(&case.model, &[0.0, 12.0]);
+        let case_dir = dir.join(format!("case{seed}"));
+        let descs = testdata::write_multigain(&case_dir, &case.model, &layout, seed + 77).unwrap();
+        assert_eq!(descs.len(), 2);
+        let r = gap::run_inputs(&descs, None, &GapOptions::default()).unwrap();
+        assert!((r.gains_db[1] - 12.0).abs() < 0.05, "gain {}", r.gains_db[1]);
+        let named = sorted(r.named());
+        let hidden = sorted(case.hidden.iter().map(|s| (*s).to_string()));
+        if kind.is_none() {
+            assert!(!named.iter().any(|n| n == "read_noise_split"), "seed {seed}: no split hidden, named {named:?}");
+        } else if named.iter().any(|n| n == "read_noise_split") {
+            split_found += 1;
+        }
+        if named == hidden {
+            hits += 1;
+        } else {
+            misses.push(format!("seed {seed}: hidden {hidden:?} named {named:?}"));
+        }
+        let _ = std::fs::remove_dir_all(&case_dir);
+    }
+    println!("two-gain hidden-effect hit rate: {hits}/12; misses: {misses:?}");
+    assert!(split_found >= 7, "read_noise_split found in {split_found}/8; {misses:?}");
+    assert!(hits >= 8, "hit rate {hits}/12; misses: {misses:?}");
+}
+
+/// The fitted post-gain fraction lands near the truth (two descriptors at 0 and 12 dB).
+#[test]
+fn read_noise_split_fraction_is_close() {
+    let dir = temp_dir("split-param");
+    let mut case = testdata::random_multigain_case(41, Some(0));
+    case.model.sensor.effects.read_noise_split.post_gain_fraction = 0.5;
+    let layout = testdata::layout_gains(&case.model, &[0.0, 12.0]);
+    let descs = testdata::write_multigain(&dir, &case.model, &layout, 3).unwrap();
+    let r = gap::run_inputs(&descs, None, &GapOptions::default()).unwrap();
+    assert_eq!(sorted(r.named()), ["black_level", "read_noise_split"]);
+    let f = r.final_model.sensor.effects.read_noise_split.post_gain_fraction;
+    assert!((f - 0.5).abs() < 0.1, "post-gain fraction {f}");
+}
+
+/// `gap` on photon-transfer CSVs written from the generator (three gains: 0, 6, 12 dB): a camera
+/// with only its black level names only that; a hidden read-noise split, and with it a
+/// nonlinearity, are named. Spatial effects are never candidates on a CSV.
+#[test]
+fn csv_hidden_effects_are_named() {
+    let dir = temp_dir("csv");
+    let gains = [0.0, 6.0, 12.0];
+    // Clean.
+    let case = testdata::random_multigain_case(500, None);
+    let path = dir.join("clean.csv");
+    testdata::write_csv(&path, &case.model, &testdata::layout_gains(&case.model, &gains), 1).unwrap();
+    let r = gap::run(&path, None, &GapOptions::default()).unwrap();
+    assert_eq!(r.named(), ["black_level"], "black-level-only CSV");
+    assert!(r.trials.iter().all(|t| !["dsnu", "prnu", "hot_pixels", "periodic_pattern"].contains(&t.effect.as_str())));
+    // Split alone (with the black level), and split + nonlinearity.
+    for (seed, nonlinear) in [(501u64, false), (502, false), (503, true)] {
+        let mut case = testdata::random_multigain_case(seed, Some(0));
+        if nonlinear {
+            let e = &mut case.model.sensor.effects;
+            e.nonlinearity.enabled = true;
+            e.nonlinearity.a = -0.06;
+            case.hidden.push("nonlinearity");
+        }
+        let path = dir.join(format!("case{seed}.csv"));
+        testdata::write_csv(&path, &case.model, &testdata::layout_gains(&case.model, &gains), seed).unwrap();
+        let r = gap::run(&path, None, &GapOptions::default()).unwrap();
+        let want = sorted(case.hidden.iter().map(|s| (*s).to_string()));
+        assert_eq!(sorted(r.named()), want, "seed {seed}");
+        assert!(r.gap_final.gap <= 0.2 * r.gap_initial.gap, "{} -> {}", r.gap_initial.gap, r.gap_final.gap);
+    }
+}
+
+/// A malformed CSV is refused by `scene-gen gap` with its line number, exit 2, nothing written;
+/// a CSV next to a descriptor is refused too.
+#[test]
+fn cli_refuses_malformed_csv_with_its_line() {
+    let dir = temp_dir("csv-bad");
+    let out = dir.join("out");
+    let bad = dir.join("bad.csv");
+    std::fs::write(&bad, "exposure_s,gain_db,photons,mean_dn,temporal_var_dn2\n0.01,0,0,10,4\n0.01,0,1000,x,9\n")
+        .unwrap();
+    let o = bin().arg("gap").arg(&bad).arg("--out").arg(&out).output().unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("bad.csv:3") && err.contains("mean_dn"), "{err}");
+    assert!(!out.exists());
+    let lux = dir.join("lux.csv");
+    std::fs::write(&lux, "exposure_s,gain_db,illuminance_lux,mean_dn,temporal_var_dn2\n0.01,0,0,10,4\n0.01,0,5,90,9\n")
+        .unwrap();
+    let o = bin().arg("gap").arg(&lux).arg("--out").arg(&out).output().unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("lux.csv:2") && err.contains("photons"), "{err}");
+    assert!(!out.exists());
+    let (_, desc) = write_case(4, 0, &dir.join("data"));
+    let o = bin().arg("gap").arg(&desc).arg(&bad).arg("--out").arg(&out).output().unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    assert!(!out.exists());
+}
+
+/// `scene-gen gap A.txt B.txt --json`: two descriptors of one camera at two gains.
+#[test]
+fn cli_takes_several_descriptors() {
+    let dir = temp_dir("cli-multi");
+    let case = testdata::random_multigain_case(61, Some(0));
+    let layout = testdata::layout_gains(&case.model, &[0.0, 12.0]);
+    let descs = testdata::write_multigain(&dir.join("data"), &case.model, &layout, 8).unwrap();
+    let out = dir.join("out");
+    let o = bin().arg("gap").args(&descs).arg("--out").arg(&out).arg("--json").output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(sorted(v["named"].as_array().unwrap().iter().map(|n| n.as_str().unwrap().to_string())), case.hidden);
+    let model = SensorModel::from_toml(&std::fs::read_to_string(out.join("model.toml")).unwrap()).unwrap();
+    assert!(model.effects.read_noise_split.enabled);
 }

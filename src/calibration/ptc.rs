@@ -13,6 +13,10 @@
 //! | `spatial_var_dn2` | DN^2   | no                                                  |
 //! | `dark_mean_dn`    | DN     | no: else rows with zero light are the dark points   |
 //! | `dark_var_dn2`    | DN^2   | with `dark_mean_dn`                                 |
+//! | `pixels`          | count  | no: pixels each row's statistics were computed over |
+//!
+//! `pixels` sets the sampling uncertainties of the gap workflow (`scene-gen gap` on a CSV);
+//! calibration does not use it.
 //!
 //! Lines starting with `#` and blank lines are ignored.
 
@@ -44,6 +48,7 @@ pub struct PtcRow {
     pub spatial_var_dn2: Option<f64>,
     pub dark_mean_dn: Option<f64>,
     pub dark_var_dn2: Option<f64>,
+    pub pixels: Option<f64>,
 }
 
 impl PtcRow {
@@ -55,7 +60,7 @@ impl PtcRow {
 }
 
 const REQUIRED: [&str; 5] = ["exposure_s", "gain_db", "mean_dn", "temporal_var_dn2", "photons|illuminance_lux"];
-const KNOWN: [&str; 9] = [
+const KNOWN: [&str; 10] = [
     "exposure_s",
     "gain_db",
     "photons",
@@ -65,6 +70,7 @@ const KNOWN: [&str; 9] = [
     "spatial_var_dn2",
     "dark_mean_dn",
     "dark_var_dn2",
+    "pixels",
 ];
 
 /// Reads a photon-transfer CSV file.
@@ -131,7 +137,11 @@ pub fn parse_ptc(text: &str, path: &Path) -> Result<Vec<PtcRow>, PtcError> {
             spatial_var_dn2: get("spatial_var_dn2")?,
             dark_mean_dn: get("dark_mean_dn")?,
             dark_var_dn2: get("dark_var_dn2")?,
+            pixels: get("pixels")?,
         };
+        if row.pixels.is_some_and(|p| p < 1.0 || p.fract() != 0.0) {
+            return Err(err(line, "column 'pixels': expected a whole number of at least 1".into()));
+        }
         if row.photons.is_none() && row.illuminance_lux.is_none() {
             return Err(err(line, "no light level: expected 'photons' or 'illuminance_lux'".into()));
         }

@@ -13,8 +13,11 @@ use super::{CliError, bad_input, failure};
 
 #[derive(Args, Debug)]
 pub struct GapArgs {
-    /// An EMVA 1288 descriptor with its images.
-    pub measured: PathBuf,
+    /// An EMVA 1288 descriptor with its images; or several descriptors of one camera at
+    /// different gains (the first is the reference; the others' gains are measured from their
+    /// response); or one photon-transfer CSV (`.csv`, with a gain column).
+    #[arg(required = true, num_args = 1..)]
+    pub measured: Vec<PathBuf>,
     /// Start from this sensor model (model.toml form) instead of the calibrated linear model.
     #[arg(long)]
     pub model: Option<PathBuf>,
@@ -49,8 +52,9 @@ pub fn run(args: &GapArgs) -> Result<(), CliError> {
         max_stack_frames: (args.stack_frames > 0).then_some(args.stack_frames),
         ..GapOptions::default()
     };
-    let result = gap::run(&args.measured, model, &options).map_err(bad_input)?;
-    let files = gap::report::render(&result, &args.measured.display().to_string()).map_err(failure)?;
+    let result = gap::run_inputs(&args.measured, model, &options).map_err(bad_input)?;
+    let source = args.measured.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(" ");
+    let files = gap::report::render(&result, &source).map_err(failure)?;
     gap::report::write(&args.out, &files).map_err(failure)?;
     if args.json {
         let text = serde_json::to_string_pretty(&gap::report::summary_json(&result)).map_err(failure)?;

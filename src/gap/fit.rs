@@ -16,9 +16,10 @@ use super::stats::{self, Gap, Stats, Thresholds};
 use super::{Acquisition, GapModel, GapOptions, GapResult, Light, Step, Trial, simulate_acquisition};
 
 /// Effects the workflow can add, in the order they are tried (ties go to the earlier one).
-pub const CANDIDATES: [&str; 10] = [
+pub const CANDIDATES: [&str; 11] = [
     "black_level",
     "dark_current",
+    "read_noise_split",
     "saturation",
     "nonlinearity",
     "dsnu",
@@ -35,15 +36,12 @@ pub const CANDIDATES: [&str; 10] = [
 /// every true effect there dropped the chi-square by 60 or more, so a factor 2 costs no hit.
 pub const PENALTY_FACTOR: f64 = 2.0;
 
-/// Peak-to-median ratio above which a periodogram peak counts as a wave (a white 64 x 48 image's
-/// largest bin reaches about 15 medians, 160 x 120 about 17).
-const PEAK_RATIO: f64 = 40.0;
-
 /// Number of fitted parameters of an effect (the BIC's k).
 #[must_use]
 pub fn param_count(effect: &str) -> usize {
     match effect {
         "hot_pixels" | "row_column_noise" => 2,
+        // The post-gain fraction (the total read noise is the linear model's).
         // Amplitude and two frequencies per wave (up to two waves).
         "periodic_pattern" => 5,
         _ => 1,
@@ -60,7 +58,7 @@ fn slope(xs: &[f64], ys: &[f64]) -> f64 {
 }
 
 fn distinct_dark_exposures(m: &Stats) -> usize {
-    let mut ts: Vec<f64> = m.darks.iter().map(|d| d.exposure_s).collect();
+    let mut ts: Vec<f64> = m.base_darks().map(|d| d.exposure_s).collect();
     ts.sort_by(f64::total_cmp);
     ts.dedup_by(|a, b| (*a - *b).abs() <= 1e-12);
     ts.len()
@@ -78,7 +76,7 @@ pub fn propose(effect: &str, model: &GapModel, m: &Stats, s: &Stats) -> Option<G
     let black = if e.black_level.enabled { e.black_level.offset_dn } else { 0.0 };
     match effect {
         "black_level" => {
-            let (dm, ds) = (m.darks.first()?, s.darks.first()?);
+            let (dm, ds) = (m.base_darks().next()?, s.base_darks().next()?);
             let cur = if e.black_level.enabled { e.black_level.offset_dn } else { 0.0 };
             e.black_level.enabled = true;
             e.black_level.offset_dn = cur + dm.mean_dn - ds.mean_dn;
@@ -87,9 +85,9 @@ pub fn propose(effect: &str, model: &GapModel, m: &Stats, s: &Stats) -> Option<G
             if distinct_dark_exposures(m) < 2 {
                 return None;
             }
-            let ts: Vec<f64> = m.darks.iter().map(|d| d.exposure_s).collect();
-            let sm = slope(&ts, &m.darks.iter().map(|d| d.mean_dn).collect::<Vec<_>>());
-            let ss = slope(&ts, &s.darks.iter().map(|d| d.mean_dn).collect::<Vec<_>>());
+            let ts: Vec<f64> = m.base_darks().map(|d| d.exposure_s).collect();
+            let sm = slope(&ts, &m.base_darks().map(|d| d.mean_dn).collect::<Vec<_>>());
+            let ss = slope(&ts, &s.base_darks().map(|d| d.mean_dn).collect::<Vec<_>>());
             let cur = if e.dark_current.enabled { e.dark_current.rate_e_per_s } else { 0.0 };
             let rate = (cur + (sm - ss) / k).max(0.0);
             if rate <= 0.0 {
@@ -102,7 +100,7 @@ pub fn propose(effect: &str, model: &GapModel, m: &Stats, s: &Stats) -> Option<G
             if e.saturation.enabled {
                 return None;
             }
-            let plateau = m.steps.iter().map(|p| p.mean_dn).fold(f64::NEG_INFINITY, f64::max);
+            let plateau = m.base_steps().map(|p| p.mean_dn).fold(f64::NEG_INFINITY, f64::max);
             // At the ADC limit the full well cannot be told from the ADC clip.
             if plateau >= 0.98 * max {
                 return None;
@@ -195,8 +193,39 @@ pub fn propose(effect: &str, model: &GapModel, m: &Stats, s: &Stats) -> Option<G
             e.hot_pixels.fraction = (c1 / (n * (1.0 - t / x))).min(1.0);
             e.hot_pixels.max_excess_e_per_s = x / (k * dm.exposure_s);
         }
+        "read_noise_split" => {
+            // Dark variance at gain g: K^2 (g^2 (1 - f) + f) v + ...: its slope in the post-gain
+            // fraction f is K^2 v (1 - g^2). Weighted mean of the per-pair corrections over the
+            // dark pairs away from the reference gain (weights: squared slope over the variance of
+            // the variance difference).
+            let v = sensor.read_noise_e * sensor.read_noise_e;
+            let split = e.read_noise_split;
+            let cur = if split.enabled { split.post_gain_fraction } else { 0.0 };
+            let (mut num, mut den) = (0.0, 0.0);
+            for (dm, ds) in m.darks.iter().zip(&s.darks).filter(|(d, _)| d.group > 0) {
+                let g0 = crate::sensor::noise::gain_factor(s.gains_db.first().copied().unwrap_or(0.0));
+                let g = crate::sensor::noise::gain_factor(s.gains_db.get(dm.group).copied().unwrap_or(0.0));
+                let slope = k * k * v * (g0 * g0 - g * g);
+                let vv = 2.0 * (dm.var_dn2.powi(2) + ds.var_dn2.powi(2)) / (m.width * m.height).max(1) as f64;
+                if slope.abs() < 1e-12 || vv <= 0.0 {
+                    continue;
+                }
+                let w = slope * slope / vv;
+                num += w * (dm.var_dn2 - ds.var_dn2) / slope;
+                den += w;
+            }
+            if den <= 0.0 {
+                return None;
+            }
+            let f = (cur + num / den).clamp(0.0, 1.0);
+            if f <= 0.0 {
+                return None;
+            }
+            e.read_noise_split.enabled = true;
+            e.read_noise_split.post_gain_fraction = f;
+        }
         "row_column_noise" => {
-            let (dm, ds) = (m.darks.first()?, s.darks.first()?);
+            let (dm, ds) = (m.base_darks().next()?, s.base_darks().next()?);
             let rc = e.row_column_noise;
             let (cr, cc) = if rc.enabled { (rc.row_std_dn, rc.column_std_dn) } else { (0.0, 0.0) };
             let row2 = (cr * cr + dm.diff_row_var_dn2 - ds.diff_row_var_dn2).max(0.0);
@@ -215,7 +244,7 @@ pub fn propose(effect: &str, model: &GapModel, m: &Stats, s: &Stats) -> Option<G
             // The waves: measured peaks standing well above the ~15 medians a white image's
             // largest bin reaches; amplitude^2 from the excess power over the current model's.
             let pp = e.periodic_pattern;
-            let waves: Vec<&stats::Peak> = m.peaks.iter().filter(|p| p.ratio > PEAK_RATIO).collect();
+            let waves: Vec<&stats::Peak> = m.peaks.iter().filter(|p| p.ratio > stats::PEAK_RATIO).collect();
             if waves.is_empty() {
                 return None;
             }
@@ -265,16 +294,16 @@ type MeanRow = (f64, f64, f64);
 /// variance. Offsets (black level, dark signal) cancel, so a responsivity fit leaves them to
 /// their effects. Also the plateau.
 fn mean_rows(m: &Stats, s: &Stats, max: f64) -> Option<(f64, Vec<MeanRow>)> {
-    let plateau = m.steps.iter().map(|p| p.mean_dn).fold(f64::NEG_INFINITY, f64::max).min(max);
+    let plateau = m.base_steps().map(|p| p.mean_dn).fold(f64::NEG_INFINITY, f64::max).min(max);
     let dark = |st: &Stats, t: f64| -> Option<f64> {
-        st.darks.iter().min_by(|a, b| (a.exposure_s - t).abs().total_cmp(&(b.exposure_s - t).abs())).map(|d| d.mean_dn)
+        st.base_darks().min_by(|a, b| (a.exposure_s - t).abs().total_cmp(&(b.exposure_s - t).abs())).map(|d| d.mean_dn)
     };
     let vars: Vec<f64> = m.entries.iter().filter(|e| e.family == "linearity").map(|e| e.var).collect();
     let svars: Vec<f64> = s.entries.iter().filter(|e| e.family == "linearity").map(|e| e.var).collect();
-    let floor = m.darks.first()?.mean_dn;
+    let floor = m.base_darks().next()?.mean_dn;
     let mut rows = Vec::new();
     for (i, (pm, ps)) in m.steps.iter().zip(&s.steps).enumerate() {
-        if pm.mean_dn > floor + 0.9 * (plateau - floor) {
+        if pm.group != 0 || pm.mean_dn > floor + 0.9 * (plateau - floor) {
             continue;
         }
         let (dm, ds) = (dark(m, pm.exposure_s)?, dark(s, ps.exposure_s)?);
@@ -284,6 +313,25 @@ fn mean_rows(m: &Stats, s: &Stats, max: f64) -> Option<(f64, Vec<MeanRow>)> {
     (rows.len() >= 2).then_some((plateau, rows))
 }
 
+/// Response slope (DN per photon, through the origin) of gain group `group` of `st`, over the
+/// steps whose measured signal is in the lower 40 % of the range above dark (`keep`).
+fn response_slope(st: &Stats, group: usize, keep: &[bool]) -> Option<f64> {
+    let dark = |t: f64| -> Option<f64> {
+        st.darks
+            .iter()
+            .filter(|d| d.group == group)
+            .min_by(|a, b| (a.exposure_s - t).abs().total_cmp(&(b.exposure_s - t).abs()))
+            .map(|d| d.mean_dn)
+    };
+    let (mut sxy, mut sxx) = (0.0, 0.0);
+    for (p, _) in st.steps.iter().zip(keep).filter(|(p, k)| p.group == group && **k) {
+        let y = p.mean_dn - dark(p.exposure_s)?;
+        sxy += p.photons * y;
+        sxx += p.photons * p.photons;
+    }
+    (sxx > 0.0).then(|| sxy / sxx)
+}
+
 /// The parameters of an effect of `model`, as JSON.
 #[must_use]
 pub fn params(effect: &str, model: &GapModel) -> serde_json::Value {
@@ -291,6 +339,7 @@ pub fn params(effect: &str, model: &GapModel) -> serde_json::Value {
     let v = match effect {
         "black_level" => serde_json::to_value(e.black_level),
         "dark_current" => serde_json::to_value(e.dark_current),
+        "read_noise_split" => serde_json::to_value(e.read_noise_split),
         "saturation" => serde_json::to_value(e.saturation),
         "nonlinearity" => serde_json::to_value(e.nonlinearity),
         "dsnu" => serde_json::to_value(e.dsnu),
@@ -309,8 +358,12 @@ pub fn params(effect: &str, model: &GapModel) -> serde_json::Value {
 }
 
 /// Evaluates models against one measured acquisition.
-struct Evaluator<'a> {
-    measured: &'a Acquisition,
+struct Evaluator {
+    /// The acquisition layout (frame counts, exposures, photons, gain groups); its gains are
+    /// refined by [`Evaluator::refit_group_gains`].
+    layout: Acquisition,
+    /// Compare only the statistics of a photon-transfer CSV ([`Stats::reduced`]).
+    reduced: bool,
     t: Thresholds,
     m: Stats,
     seed: u64,
@@ -318,10 +371,13 @@ struct Evaluator<'a> {
     dark_pair: usize,
 }
 
-impl Evaluator<'_> {
+impl Evaluator {
     fn eval(&self, model: &GapModel) -> (Stats, Gap) {
-        let sim = simulate_acquisition(model, self.measured, self.seed, None);
+        let sim = simulate_acquisition(model, &self.layout, self.seed, None);
         let mut s = stats::compute(&sim, &self.t);
+        if self.reduced {
+            s = s.reduced();
+        }
         s.thresholds = Some(self.t);
         let g = stats::gap(&self.m, &s);
         (s, g)
@@ -329,7 +385,7 @@ impl Evaluator<'_> {
 
     /// Temporal variance of the simulated first dark pair.
     fn dark_var(&self, model: &GapModel) -> f64 {
-        let sim = simulate_acquisition(model, self.measured, self.seed, Some(&[self.dark_pair]));
+        let sim = simulate_acquisition(model, &self.layout, self.seed, Some(&[self.dark_pair]));
         let b = &sim.blocks[self.dark_pair];
         let n = b.frames[0].len() as f64;
         let d: Vec<f64> = b.frames[0].iter().zip(&b.frames[1]).map(|(&x, &y)| f64::from(x) - f64::from(y)).collect();
@@ -383,9 +439,10 @@ impl Evaluator<'_> {
     /// mean below 90 % of the plateau, measured over simulated; offsets (dark level, clipped darks, read
     /// noise) do not enter a slope.
     fn refit_gain(&self, model: &mut GapModel, s: &Stats) {
-        let plateau = self.m.steps.iter().map(|p| p.mean_dn).fold(f64::NEG_INFINITY, f64::max);
-        let floor = self.m.darks.first().map_or(0.0, |d| d.mean_dn);
-        let keep: Vec<bool> = self.m.steps.iter().map(|p| p.mean_dn <= floor + 0.9 * (plateau - floor)).collect();
+        let plateau = self.m.base_steps().map(|p| p.mean_dn).fold(f64::NEG_INFINITY, f64::max);
+        let floor = self.m.base_darks().next().map_or(0.0, |d| d.mean_dn);
+        let keep: Vec<bool> =
+            self.m.steps.iter().map(|p| p.group == 0 && p.mean_dn <= floor + 0.9 * (plateau - floor)).collect();
         // Weighted least-squares slope (weights 1 / var^2: the variance of a variance).
         let wslope = |st: &Stats| -> f64 {
             let pts: Vec<(f64, f64, f64)> = st
@@ -415,6 +472,29 @@ impl Evaluator<'_> {
         }
     }
 
+    /// Refits the gain of every group but the reference: its gain times the ratio of the
+    /// measured to the simulated response slope over the lower 40 % of the range (a nuisance
+    /// of the layout, like the responsivity of the model). Returns whether any changed.
+    fn refit_group_gains(&mut self, s: &Stats) -> bool {
+        let max = f64::from((1u32 << self.layout.bits) - 1);
+        let mut changed = false;
+        for group in 1..self.layout.gains_db.len() {
+            let floor = self.m.darks.iter().find(|d| d.group == group).map_or(0.0, |d| d.mean_dn);
+            let keep: Vec<bool> = self.m.steps.iter().map(|p| p.mean_dn - floor <= 0.4 * (max - floor)).collect();
+            let (Some(a), Some(b)) = (response_slope(&self.m, group, &keep), response_slope(s, group, &keep)) else {
+                continue;
+            };
+            if a > 0.0 && b > 0.0 {
+                let d = 20.0 * (a / b).log10();
+                if d.abs() > 1e-6 {
+                    self.layout.gains_db[group] += d;
+                    changed = true;
+                }
+            }
+        }
+        changed
+    }
+
     /// Refits the nuisance parameters of the linear model: K, read noise, responsivity.
     fn refit_base(&self, model: &mut GapModel, s: &Stats) {
         self.refit_gain(model, s);
@@ -424,20 +504,42 @@ impl Evaluator<'_> {
     }
 }
 
-/// The greedy search (see the module doc). `refine`: refit K and the read noise of the start
-/// model (the calibrated start; a given model is taken as it is).
+/// Candidates a photon-transfer CSV can show (no images: no spatial effects).
+pub const REDUCED_CANDIDATES: [&str; 5] =
+    ["black_level", "dark_current", "read_noise_split", "saturation", "nonlinearity"];
+
+/// The greedy search (see the module doc) against the measured statistics `m` of an acquisition
+/// with the layout `layout` (`reduced`: `m` holds only [`stats::REDUCED_FAMILIES`]). `refine`:
+/// refit K and the read noise of the start model (the calibrated start; a given model is taken
+/// as it is). The gains of groups other than the reference are refitted either way.
 #[must_use]
-pub fn search(measured: &Acquisition, start: GapModel, refine: bool, options: &GapOptions) -> GapResult {
-    let t = stats::thresholds(measured);
-    let mut m = stats::compute(measured, &t);
-    m.thresholds = Some(t);
-    let dark_pair =
-        measured.blocks.iter().position(|b| b.frames.len() == 2 && b.light == Light::Dark).unwrap_or_default();
-    let ev = Evaluator { measured, t, m, seed: options.seed, dark_pair };
+pub fn search(
+    layout: &Acquisition,
+    m: Stats,
+    reduced: bool,
+    start: GapModel,
+    refine: bool,
+    options: &GapOptions,
+) -> GapResult {
+    let t = m.thresholds.unwrap_or(Thresholds { dark_dn: f64::INFINITY, bright_dn: f64::INFINITY });
+    let dark_pair = layout
+        .blocks
+        .iter()
+        .position(|b| b.group == 0 && b.frames.len() == 2 && b.light == Light::Dark)
+        .unwrap_or_default();
+    let mut layout = layout.clone();
+    layout.blocks.iter_mut().for_each(|b| b.frames = vec![Vec::new(); b.frames.len()]);
+    let mut ev = Evaluator { layout, reduced, t, m, seed: options.seed, dark_pair };
     let mut model = start;
     if refine {
         let (s, _) = ev.eval(&model);
         ev.refit_base(&mut model, &s);
+    }
+    for _ in 0..3 {
+        let (s, _) = ev.eval(&model);
+        if !ev.refit_group_gains(&s) {
+            break;
+        }
     }
     let initial = model.clone();
     let (mut s, mut g) = ev.eval(&model);
@@ -449,7 +551,7 @@ pub fn search(measured: &Acquisition, start: GapModel, refine: bool, options: &G
         let named = model.named();
         let mut best: Option<(f64, &str, GapModel, Stats, Gap)> = None;
         for &effect in &CANDIDATES {
-            if named.contains(&effect) {
+            if named.contains(&effect) || (ev.reduced && !REDUCED_CANDIDATES.contains(&effect)) {
                 continue;
             }
             let Some(mut trial) = propose(effect, &model, &ev.m, &s) else { continue };
@@ -493,6 +595,9 @@ pub fn search(measured: &Acquisition, start: GapModel, refine: bool, options: &G
                     (model, s, g) = (p, ps, pg);
                 }
             }
+            if ev.refit_group_gains(&s) {
+                (s, g) = ev.eval(&model);
+            }
             for name in model.named() {
                 if let Some(mut p) = propose(name, &model, &ev.m, &s) {
                     if refine {
@@ -522,6 +627,7 @@ pub fn search(measured: &Acquisition, start: GapModel, refine: bool, options: &G
             ),
         });
     }
+    let gains_db = ev.layout.gains_db.clone();
     GapResult {
         initial,
         final_model: model,
@@ -532,5 +638,6 @@ pub fn search(measured: &Acquisition, start: GapModel, refine: bool, options: &G
         gap_final: g,
         steps,
         trials,
+        gains_db,
     }
 }

@@ -23,18 +23,29 @@
 //!    (K, read noise, responsivity) and the added effects are refitted; repeat until no
 //!    candidate earns its place.
 //!
-//! Measured on 40 hidden-effect data sets (tests/gap.rs, [`testdata`]): 37 named exactly the
-//! hidden effects with the gap 80 % smaller or better, and none of the 14 clean sets named
-//! anything; the 3 misses are periodic patterns over dark frames clipped at 0 DN. On EMVA 1288 data set 003 (centre crop) it names black level, nonlinearity, DSNU,
-//! the diagonal periodic DSNU waves, PRNU and the slight fall-off; not the ~6 hot pixels of the
-//! crop, whose excess (0..15 DN) does not clear the 6-sigma tail threshold.
+//! Hidden-effect data sets (tests/gap.rs, [`testdata`]): see the tests for the measured hit
+//! rates (40 single-gain cases, 12 two-gain cases, CSVs). On EMVA 1288 data set 003 (centre
+//! crop) it names black level, nonlinearity, DSNU, the diagonal periodic DSNU waves, PRNU and the
+//! slight fall-off. Hot pixels: the tail is counted on the dark residual with its periodic waves
+//! removed ([`stats::remove_waves`]: the threshold is then six sigmas of the pixel noise, 9.6 DN
+//! rather than 13.4 DN) and scored by its Poisson deviance ([`stats::count_deviance`]) rather
+//! than a chi-square; the crop's ~6 hot pixels (excess 0..15 DN against 1.6 DN of noise) leave
+//! one pixel above the threshold, at 6.8 sigma: deviance ~18 against the 2-parameter penalty of
+//! ~19 at 115 statistics, so `hot_pixels` is still not named there. On a full 640x480 set
+//! written by the generator with set 003's camera (100 hot pixels) it is named, with the other
+//! five (docs/BENCHMARKS.md).
 //!
-//! `read_noise_split` needs two gains and an EMVA descriptor holds one, so it is never a
-//! candidate here. `illumination_falloff` is an optics effect ([`OPTICS_EFFECTS`]); the workflow
-//! models it on the photon image and writes it to `optics.toml` beside `model.toml`.
+//! Inputs ([`run_inputs`]): one descriptor; several descriptors of one camera at different gains
+//! (gain groups; the gains are measured from the response, [`load_acquisitions`]), where
+//! `read_noise_split` becomes a candidate; or one photon-transfer CSV ([`csv`]: photon transfer,
+//! linearity and dark statistics only, per gain). With one gain `read_noise_split` is never
+//! proposed (it changes nothing there). `illumination_falloff` is an optics effect
+//! ([`OPTICS_EFFECTS`]); the workflow models it on the photon image and writes it to
+//! `optics.toml` beside `model.toml`.
 //!
 //! [`OPTICS_EFFECTS`]: crate::sensor::noise::OPTICS_EFFECTS
 
+pub mod csv;
 pub mod fit;
 pub mod report;
 pub mod stats;
@@ -61,6 +72,8 @@ pub enum GapError {
     Calibration(#[from] CalibrationError),
     #[error(transparent)]
     Model(#[from] ModelError),
+    #[error(transparent)]
+    Ptc(#[from] crate::calibration::ptc::PtcError),
     #[error("{}: {message}", path.display())]
     Unusable { path: PathBuf, message: String },
 }
@@ -95,6 +108,8 @@ pub enum Light {
 pub struct Block {
     pub light: Light,
     pub exposure_s: f64,
+    /// Gain group: index into [`Acquisition::gains_db`] (one group per input file or CSV gain).
+    pub group: usize,
     /// Frames, row-major `width x height` DN values.
     pub frames: Vec<Vec<f32>>,
 }
@@ -106,6 +121,9 @@ pub struct Acquisition {
     pub height: usize,
     pub bits: u32,
     pub blocks: Vec<Block>,
+    /// Analog gain of each group, dB (the model's K is at 0 dB). Group 0 is the reference: the
+    /// first descriptor (0 dB, the others relative to it) or the lowest gain of a CSV.
+    pub gains_db: Vec<f64>,
 }
 
 /// Loads the images of an EMVA 1288 descriptor (spatial stacks cut to `max_stack_frames`,
@@ -130,9 +148,9 @@ pub fn load_acquisition(path: &Path, options: &GapOptions) -> Result<Acquisition
         let take = if pair { 2 } else { options.max_stack_frames.unwrap_or(usize::MAX).max(2) };
         let frames =
             b.images.iter().take(take).map(|p| emva::load_image(p, w, h, bits)).collect::<Result<Vec<_>, _>>()?;
-        blocks.push(Block { light, exposure_s: b.exposure_s(), frames });
+        blocks.push(Block { light, exposure_s: b.exposure_s(), group: 0, frames });
     }
-    Ok(Acquisition { width: w as usize, height: h as usize, bits, blocks })
+    Ok(Acquisition { width: w as usize, height: h as usize, bits, blocks, gains_db: vec![0.0] })
 }
 
 /// Illumination fall-off of the optics, applied to the photon image: photons at normalised
@@ -216,23 +234,24 @@ pub fn simulate_acquisition(model: &GapModel, layout: &Acquisition, seed: u64, w
         .enumerate()
         .map(|(bi, b)| {
             if which.is_some_and(|s| !s.contains(&bi)) {
-                return Block { light: b.light, exposure_s: b.exposure_s, frames: Vec::new() };
+                return Block { light: b.light, exposure_s: b.exposure_s, group: b.group, frames: Vec::new() };
             }
             let photons = photon_map(match b.light {
                 Light::Bright(p) => p,
                 Light::Dark => 0.0,
             });
+            let gain_db = layout.gains_db.get(b.group).copied().unwrap_or(0.0);
             let frames = (0..b.frames.len())
                 .into_par_iter()
                 .map(|fi| {
-                    let dn = sensor.simulate_with(&pattern, &photons, b.exposure_s, 0.0, frame_seed(seed, bi, fi));
+                    let dn = sensor.simulate_with(&pattern, &photons, b.exposure_s, gain_db, frame_seed(seed, bi, fi));
                     dn.into_iter().map(f32::from).collect()
                 })
                 .collect();
-            Block { light: b.light, exposure_s: b.exposure_s, frames }
+            Block { light: b.light, exposure_s: b.exposure_s, group: b.group, frames }
         })
         .collect();
-    Acquisition { width: w, height: h, bits: layout.bits, blocks }
+    Acquisition { width: w, height: h, bits: layout.bits, blocks, gains_db: layout.gains_db.clone() }
 }
 
 /// The start model: the EMVA 1288 linear model of the calibration (K, QE, read noise), every
@@ -282,6 +301,8 @@ pub struct GapResult {
     pub gap_final: stats::Gap,
     pub steps: Vec<Step>,
     pub trials: Vec<Trial>,
+    /// Gain of each input group as finally fitted, dB (group 0 the reference).
+    pub gains_db: Vec<f64>,
 }
 
 impl GapResult {
@@ -292,21 +313,126 @@ impl GapResult {
     }
 }
 
-/// Runs the workflow on a descriptor: from the calibrated start model, or from `model`.
-pub fn run(path: &Path, model: Option<GapModel>, options: &GapOptions) -> Result<GapResult, GapError> {
-    let measured = load_acquisition(path, options)?;
-    let unusable = |message: String| GapError::Unusable { path: path.to_path_buf(), message };
-    let pairs = measured.blocks.iter().filter(|b| b.frames.len() == 2 && matches!(b.light, Light::Bright(_))).count();
+/// Response slope of gain group `group` (DN per photon): least squares of the pair means minus
+/// the dark pair nearest in exposure, over the steps in the lower 40 % of the range above dark.
+/// Every group is fitted over the same DN window, so a nonlinearity (a function of DN) biases
+/// every group's slope alike and their ratio, the relative gain, stays unbiased.
+fn group_slope(acq: &Acquisition, group: usize) -> Option<f64> {
+    let pair_mean = |b: &Block| -> f64 {
+        let s: f64 = b.frames.iter().flat_map(|f| f.iter()).map(|&v| f64::from(v)).sum();
+        s / (b.frames.len() * b.frames[0].len()).max(1) as f64
+    };
+    let pairs = || acq.blocks.iter().filter(|b| b.group == group && b.frames.len() == 2);
+    let darks: Vec<(f64, f64)> =
+        pairs().filter(|b| b.light == Light::Dark).map(|b| (b.exposure_s, pair_mean(b))).collect();
+    let max = f64::from((1u32 << acq.bits) - 1);
+    let (mut xs, mut ys) = (Vec::new(), Vec::new());
+    for b in pairs() {
+        let Light::Bright(p) = b.light else { continue };
+        let &(_, d) = darks.iter().min_by(|a, c| (a.0 - b.exposure_s).abs().total_cmp(&(c.0 - b.exposure_s).abs()))?;
+        let y = pair_mean(b) - d;
+        if y <= 0.4 * (max - d) {
+            xs.push(p);
+            ys.push(y);
+        }
+    }
+    if xs.len() < 2 {
+        return None;
+    }
+    // Through the origin: the signal above dark is zero without light.
+    let sxy: f64 = xs.iter().zip(&ys).map(|(x, y)| x * y).sum();
+    let sxx: f64 = xs.iter().map(|x| x * x).sum();
+    (sxx > 0.0).then(|| sxy / sxx)
+}
+
+/// Loads several descriptors of one camera, taken at different gains, as one acquisition: file
+/// `i` becomes gain group `i`. EMVA 1288 descriptors do not state the gain, so it is measured:
+/// the ratio of each file's response slope to the first file's ([`group_slope`]), the first file
+/// at 0 dB. The workflow refines these ratios as nuisance parameters.
+pub fn load_acquisitions(paths: &[PathBuf], options: &GapOptions) -> Result<Acquisition, GapError> {
+    let first = paths.first().ok_or_else(|| GapError::Unusable { path: PathBuf::new(), message: "no input".into() })?;
+    let mut acq = load_acquisition(first, options)?;
+    for (i, path) in paths.iter().enumerate().skip(1) {
+        let next = load_acquisition(path, options)?;
+        if (next.width, next.height, next.bits) != (acq.width, acq.height, acq.bits) {
+            return Err(GapError::Unusable {
+                path: path.clone(),
+                message: format!(
+                    "{} x {} pixels at {} bit; expected {} x {} at {} bit as in {} (one camera, several gains)",
+                    next.width,
+                    next.height,
+                    next.bits,
+                    acq.width,
+                    acq.height,
+                    acq.bits,
+                    first.display()
+                ),
+            });
+        }
+        acq.blocks.extend(next.blocks.into_iter().map(|b| Block { group: i, ..b }));
+        acq.gains_db.push(0.0);
+    }
+    let base = group_slope(&acq, 0);
+    for (i, path) in paths.iter().enumerate().skip(1) {
+        let slope = base.zip(group_slope(&acq, i)).filter(|(a, b)| *a > 0.0 && *b > 0.0);
+        let Some((a, b)) = slope else {
+            return Err(GapError::Unusable {
+                path: path.clone(),
+                message: "cannot measure its gain relative to the first input: each input needs a dark pair and 2 bright pairs in the lower 40 % of the range".into(),
+            });
+        };
+        acq.gains_db[i] = 20.0 * (b / a).log10();
+    }
+    Ok(acq)
+}
+
+/// Is `path` a photon-transfer CSV (by its extension)?
+#[must_use]
+pub fn is_csv(path: &Path) -> bool {
+    path.extension().is_some_and(|e| e.eq_ignore_ascii_case("csv"))
+}
+
+/// Runs the workflow on one measurement of a camera: an EMVA 1288 descriptor, several
+/// descriptors of the same camera at different gains (see [`load_acquisitions`]), or one
+/// photon-transfer CSV (see [`csv`]); from the calibrated start model, or from `model`.
+pub fn run_inputs(paths: &[PathBuf], model: Option<GapModel>, options: &GapOptions) -> Result<GapResult, GapError> {
+    let Some(first) = paths.first() else {
+        return Err(GapError::Unusable { path: PathBuf::new(), message: "no measured input given".into() });
+    };
+    if paths.iter().any(|p| is_csv(p)) {
+        if paths.len() > 1 {
+            return Err(GapError::Unusable {
+                path: first.clone(),
+                message: "a photon-transfer CSV holds every gain itself: give it alone".into(),
+            });
+        }
+        return csv::run(first, model, options);
+    }
+    let measured = load_acquisitions(paths, options)?;
+    let unusable = |message: String| GapError::Unusable { path: first.clone(), message };
+    let pairs = measured
+        .blocks
+        .iter()
+        .filter(|b| b.group == 0 && b.frames.len() == 2 && matches!(b.light, Light::Bright(_)))
+        .count();
     if pairs < 3 {
         return Err(unusable(format!("{pairs} bright pairs; the photon transfer needs at least 3")));
     }
-    if !measured.blocks.iter().any(|b| b.frames.len() == 2 && b.light == Light::Dark) {
+    if !measured.blocks.iter().any(|b| b.group == 0 && b.frames.len() == 2 && b.light == Light::Dark) {
         return Err(unusable("no dark pair ('d' block with 2 images)".into()));
     }
     let refine = model.is_none();
     let start = match model {
         Some(m) => m,
-        None => start_model(path, measured.bits, options.seed)?,
+        None => start_model(first, measured.bits, options.seed)?,
     };
-    Ok(fit::search(&measured, start, refine, options))
+    let t = stats::thresholds(&measured);
+    let mut m = stats::compute(&measured, &t);
+    m.thresholds = Some(t);
+    Ok(fit::search(&measured, m, false, start, refine, options))
+}
+
+/// Runs the workflow on one descriptor (see [`run_inputs`]).
+pub fn run(path: &Path, model: Option<GapModel>, options: &GapOptions) -> Result<GapResult, GapError> {
+    run_inputs(&[path.to_path_buf()], model, options)
 }

@@ -130,10 +130,16 @@ fn markdown(r: &GapResult, source: &str) -> String {
         let _ =
             writeln!(s, "| {} | {} | {:.1} | {:.1} | {:.3} |", t.round, t.effect, t.chi2_drop, t.penalty, t.gap_after);
     }
+    let gains: Vec<String> = r.gains_db.iter().map(|g| format!("{g:.2} dB")).collect();
     let _ = writeln!(
         s,
-        "\n`read_noise_split` is not a candidate: it needs measurements at two gains. \
-         Plots: photon_transfer.png (measured, start model, final model), residuals.png \
+        "\nGain groups (first: reference; others measured from their response): {}. \
+         `read_noise_split` is proposed only with two gains or more. ",
+        gains.join(", ")
+    );
+    let _ = writeln!(
+        s,
+        "Plots: photon_transfer.png (measured, start model, final model), residuals.png \
          (normalised residual per statistic, start above, final below), gap_per_step.png \
          (chi-square of mean and variance per step). The final model is in model.toml, its \
          optics effects in optics.toml."

@@ -41,13 +41,19 @@ pub struct Entry {
     /// The abscissa for plots (photons, exposure), or 0.
     pub x: f64,
     pub value: f64,
-    /// Variance of the sampling error of `value`.
+    /// Variance of the sampling error of `value` (Gaussian entries).
     pub var: f64,
+    /// Some: `value` is a Poisson count of tail pixels, compared by its likelihood deviance
+    /// (see [`count_deviance`]), and this is the count the acquisition's Gaussian core alone
+    /// would put beyond the threshold (`n Q(T / sd)`), the floor of a model's expectation.
+    pub count_floor: Option<f64>,
 }
 
 /// Photon-transfer step.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct StepStats {
+    /// Gain group (see [`Acquisition::gains_db`]).
+    pub group: usize,
     pub photons: f64,
     pub exposure_s: f64,
     pub mean_dn: f64,
@@ -57,6 +63,8 @@ pub struct StepStats {
 /// Dark pair.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct DarkStats {
+    /// Gain group (see [`Acquisition::gains_db`]).
+    pub group: usize,
     pub exposure_s: f64,
     pub mean_dn: f64,
     pub var_dn2: f64,
@@ -79,6 +87,8 @@ pub struct StackStats {
     pub below_t: f64,
     /// Mean residual of the pixels above `T`, DN (0 when none).
     pub above_t_mean_dn: f64,
+    /// Robust standard deviation of the tail residual (profiles and periodic waves removed), DN.
+    pub tail_sd_dn: f64,
 }
 
 /// A periodogram peak.
@@ -108,6 +118,30 @@ pub struct Stats {
     pub entries: Vec<Entry>,
     /// The thresholds the tails were counted with.
     pub thresholds: Option<Thresholds>,
+    /// Gain of each group, dB, as simulated (see [`Acquisition::gains_db`]).
+    pub gains_db: Vec<f64>,
+}
+
+/// Families a photon-transfer CSV can support (no images: no spatial statistics).
+pub const REDUCED_FAMILIES: [&str; 3] = ["linearity", "photon_transfer", "dark"];
+
+impl Stats {
+    /// Only the statistics of [`REDUCED_FAMILIES`], for comparison with a photon-transfer CSV.
+    #[must_use]
+    pub fn reduced(mut self) -> Stats {
+        self.entries.retain(|e| REDUCED_FAMILIES.contains(&e.family));
+        self
+    }
+
+    /// Photon-transfer steps of the reference gain group.
+    pub fn base_steps(&self) -> impl Iterator<Item = &StepStats> {
+        self.steps.iter().filter(|s| s.group == 0)
+    }
+
+    /// Dark pairs of the reference gain group.
+    pub fn base_darks(&self) -> impl Iterator<Item = &DarkStats> {
+        self.darks.iter().filter(|s| s.group == 0)
+    }
 }
 
 fn mean(v: &[f64]) -> f64 {
@@ -282,13 +316,19 @@ fn var_of_var(v: f64, m4: f64, rv: f64, n: f64, h: f64) -> f64 {
     (m4 - v * v).max(2.0 * v * v) / n + 2.0 * rv * rv / h
 }
 
-/// Thresholds from the measured acquisition.
+/// Thresholds from the measured acquisition: six robust standard deviations of the tail
+/// residual of each averaged stack (for the dark stack with its periodic waves removed, see
+/// [`remove_waves`]).
 #[must_use]
 pub fn thresholds(acq: &Acquisition) -> Thresholds {
     let (w, h) = (acq.width, acq.height);
     let mut t = Thresholds { dark_dn: f64::INFINITY, bright_dn: f64::INFINITY };
     for b in acq.blocks.iter().filter(|b| b.frames.len() > 2) {
-        let r = residual(&stack_mean(&b.frames), w, h);
+        let img = stack_mean(&b.frames);
+        let mut r = residual(&img, w, h);
+        if b.light == Light::Dark {
+            r = remove_waves(&r, w, h, &waves(&img, w, h).1);
+        }
         let v = 6.0 * robust_sd(&r).max(0.5);
         match b.light {
             Light::Dark if t.dark_dn.is_infinite() => t.dark_dn = v,
@@ -297,6 +337,113 @@ pub fn thresholds(acq: &Acquisition) -> Thresholds {
         }
     }
     t
+}
+
+/// Peak-to-median ratio above which a periodogram peak counts as a wave (a white 64 x 48 image's
+/// largest bin reaches about 15 medians, 160 x 120 about 17).
+pub const PEAK_RATIO: f64 = 40.0;
+
+/// The two largest periodogram peaks of a dark image, and the frequencies `(fx, fy)` of those
+/// that stand above [`PEAK_RATIO`] (the waves).
+fn waves(img: &[f64], w: usize, h: usize) -> (Vec<Peak>, Vec<(f64, f64)>) {
+    let (found, median) = peaks_2d(img, w, h, 2, 2);
+    let median = median.max(1e-12);
+    let floor = median / std::f64::consts::LN_2;
+    let peaks: Vec<Peak> = found
+        .into_iter()
+        .map(|(p, fx, fy)| Peak {
+            ratio: p / median,
+            fx_cycles_per_px: fx,
+            fy_cycles_per_px: fy,
+            amp2_dn2: (p - floor).max(0.0),
+        })
+        .collect();
+    let waves =
+        peaks.iter().filter(|p| p.ratio > PEAK_RATIO).map(|p| (p.fx_cycles_per_px, p.fy_cycles_per_px)).collect();
+    (peaks, waves)
+}
+
+/// Least-squares cosine and sine coefficients of a plane wave `(fx, fy)` in `r` (mean zero).
+fn wave_fit(r: &[f64], w: usize, fx: f64, fy: f64) -> (f64, f64, f64) {
+    let tau = std::f64::consts::TAU;
+    let (mut cc, mut ss, mut cs, mut rc, mut rs) = (0.0, 0.0, 0.0, 0.0, 0.0);
+    for (i, v) in r.iter().enumerate() {
+        let ph = tau * (fx * (i % w) as f64 + fy * (i / w) as f64);
+        let (s, c) = ph.sin_cos();
+        cc += c * c;
+        ss += s * s;
+        cs += c * s;
+        rc += v * c;
+        rs += v * s;
+    }
+    let det = cc * ss - cs * cs;
+    if det.abs() < 1e-12 {
+        return (0.0, 0.0, 0.0);
+    }
+    let a = (rc * ss - rs * cs) / det;
+    let b = (rs * cc - rc * cs) / det;
+    (a, b, a * rc + b * rs)
+}
+
+/// `r` minus its least-squares plane waves at `waves`, each frequency first refined on a grid of
+/// 1/8 of the periodogram's 2x-oversampled spacing (the residual of a wave fitted 1/4 bin off
+/// would still be a broad pattern, not noise). A sinusoid that stands above the noise is a
+/// pattern, not a tail: removing it makes the tail threshold six sigmas of the pixel noise.
+#[must_use]
+pub fn remove_waves(r: &[f64], w: usize, h: usize, waves: &[(f64, f64)]) -> Vec<f64> {
+    let mut out = r.to_vec();
+    let tau = std::f64::consts::TAU;
+    let (dx, dy) = (1.0 / (8.0 * w as f64), 1.0 / (8.0 * h as f64));
+    for &(fx0, fy0) in waves {
+        let mut best = (f64::NEG_INFINITY, fx0, fy0);
+        for i in -2i32..=2 {
+            for j in -2i32..=2 {
+                let (fx, fy) = (fx0 + f64::from(i) * dx, fy0 + f64::from(j) * dy);
+                let explained = wave_fit(&out, w, fx, fy).2;
+                if explained > best.0 {
+                    best = (explained, fx, fy);
+                }
+            }
+        }
+        let (_, fx, fy) = best;
+        let (a, b, _) = wave_fit(&out, w, fx, fy);
+        for (i, v) in out.iter_mut().enumerate() {
+            let (s, c) = (tau * (fx * (i % w) as f64 + fy * (i / w) as f64)).sin_cos();
+            *v -= a * c + b * s;
+        }
+    }
+    out
+}
+
+/// Upper tail of the standard normal distribution, `Q(x) = erfc(x / sqrt 2) / 2`, with erfc from
+/// its Chebyshev fit (Numerical Recipes in C, 2nd ed., section 6.2, `erfcc`: fractional error
+/// below 1.2e-7 everywhere, so the far tail keeps its relative accuracy).
+#[must_use]
+pub fn normal_tail(x: f64) -> f64 {
+    let z = (x / std::f64::consts::SQRT_2).abs();
+    let t = 1.0 / (1.0 + 0.5 * z);
+    let poly = -1.265_512_23
+        + t * (1.000_023_68
+            + t * (0.374_091_96
+                + t * (0.096_784_18
+                    + t * (-0.186_288_06
+                        + t * (0.278_868_07
+                            + t * (-1.135_203_98 + t * (1.488_515_87 + t * (-0.822_152_23 + t * 0.170_872_77))))))));
+    let erfc = t * (-z * z + poly).exp();
+    0.5 * if x >= 0.0 { erfc } else { 2.0 - erfc }
+}
+
+/// Likelihood deviance of a measured tail count `m` against a simulated one `s`: the model's
+/// expectation is `lambda = s + floor` (the simulated realisation plus the Gaussian core's own
+/// tail, which a single realisation shows as 0), `D = 2 (m ln(m / lambda) - (m - lambda))`,
+/// scaled by `lambda / (lambda + s)` for the simulated count's own Poisson noise (so large counts
+/// get the two-sample `(m - s)^2 / (m + s)`). A chi-square with variance `m + s` would score one
+/// pixel at 7 sigma, where the model expects 1e-7, as 1: the deviance scores it about 30.
+#[must_use]
+pub fn count_deviance(m: f64, s: f64, floor: f64) -> f64 {
+    let lambda = (s + floor).max(1e-12);
+    let d = 2.0 * (if m > 0.0 { m * (m / lambda).ln() } else { 0.0 } - (m - lambda));
+    d.max(0.0) * lambda / (lambda + s)
 }
 
 /// Row and column means over the pixels not masked.
@@ -324,22 +471,24 @@ fn masked_profiles(img: &[f64], w: usize, h: usize, mask: &[bool]) -> (Vec<f64>,
 }
 
 /// Stack statistics. Pixels beyond the threshold `t` (hot, dead) are found on a first residual
-/// and left out of the profiles, so one hot pixel does not shift its whole row and column.
+/// and left out of the profiles, so one hot pixel does not shift its whole row and column. The
+/// tails are counted on the residual with the plane waves `waves` removed ([`remove_waves`]).
 fn stack_stats(
     frames: &[Vec<f32>],
     exposure_s: f64,
     photons: f64,
     t: f64,
-    w: usize,
-    h: usize,
+    (w, h): (usize, usize),
+    waves: &[(f64, f64)],
 ) -> (StackStats, Vec<f64>) {
     let img = stack_mean(frames);
-    let first = residual(&img, w, h);
+    let first = remove_waves(&residual(&img, w, h), w, h, waves);
     let mask: Vec<bool> = first.iter().map(|v| v.abs() > t).collect();
     let (rm, cm, g) = masked_profiles(&img, w, h, &mask);
     let r: Vec<f64> = img.iter().enumerate().map(|(i, v)| v - rm[i / w] - cm[i % w] + g).collect();
-    let kept: Vec<f64> = r.iter().copied().filter(|v| v.abs() <= t).collect();
-    let count = |f: &dyn Fn(f64) -> bool| r.iter().filter(|&&v| f(v)).count() as f64;
+    let rt = remove_waves(&r, w, h, waves);
+    let kept: Vec<f64> = r.iter().zip(&rt).filter(|(_, t2)| t2.abs() <= t).map(|(v, _)| *v).collect();
+    let count = |f: &dyn Fn(f64) -> bool| rt.iter().filter(|&&v| f(v)).count() as f64;
     let s = StackStats {
         frames: frames.len(),
         exposure_s,
@@ -352,11 +501,21 @@ fn stack_stats(
         above_3t: count(&|v| v > 3.0 * t),
         below_t: count(&|v| v < -t),
         above_t_mean_dn: {
-            let hot: Vec<f64> = r.iter().copied().filter(|&v| v > t).collect();
+            let hot: Vec<f64> = rt.iter().copied().filter(|&v| v > t).collect();
             if hot.is_empty() { 0.0 } else { mean(&hot) }
         },
+        tail_sd_dn: robust_sd(&rt),
     };
     (s, img)
+}
+
+/// ` at G dB` when the acquisition has several gain groups.
+fn gain_label(acq: &Acquisition, group: usize) -> String {
+    if acq.gains_db.len() > 1 {
+        format!(" at {:.2} dB", acq.gains_db.get(group).copied().unwrap_or(0.0))
+    } else {
+        String::new()
+    }
 }
 
 /// Computes every statistic of `acq` with the measured data's thresholds.
@@ -370,42 +529,60 @@ pub fn compute(acq: &Acquisition, t: &Thresholds) -> Stats {
     let mut dark_stack = None;
     let mut bright_stack = None;
     let (mut dark_img, mut bright_img) = (None, None);
+    let mut peaks: Vec<Peak> = Vec::new();
     let mut mean_vars = Vec::new();
     for b in &acq.blocks {
         if b.frames.len() == 2 {
             let (m, v, mv, rv, m4) = pair_stats(&b.frames[0], &b.frames[1], w, h);
             match b.light {
                 Light::Bright(p) => {
-                    steps.push(StepStats { photons: p, exposure_s: b.exposure_s, mean_dn: m, var_dn2: v });
+                    steps.push(StepStats {
+                        group: b.group,
+                        photons: p,
+                        exposure_s: b.exposure_s,
+                        mean_dn: m,
+                        var_dn2: v,
+                    });
                     mean_vars.push((mv, rv, m4));
                 }
                 Light::Dark => {
-                    darks.push(DarkStats { exposure_s: b.exposure_s, mean_dn: m, var_dn2: v, diff_row_var_dn2: rv });
-                    entries.push(Entry {
-                        family: "dark",
-                        label: format!("dark mean {:.4} s", b.exposure_s),
-                        x: b.exposure_s,
-                        value: m,
-                        var: mv,
+                    darks.push(DarkStats {
+                        group: b.group,
+                        exposure_s: b.exposure_s,
+                        mean_dn: m,
+                        var_dn2: v,
+                        diff_row_var_dn2: rv,
                     });
                     entries.push(Entry {
                         family: "dark",
-                        label: format!("dark variance {:.4} s", b.exposure_s),
+                        label: format!("dark mean {:.4} s{}", b.exposure_s, gain_label(acq, b.group)),
+                        x: b.exposure_s,
+                        value: m,
+                        var: mv,
+                        count_floor: None,
+                    });
+                    entries.push(Entry {
+                        family: "dark",
+                        label: format!("dark variance {:.4} s{}", b.exposure_s, gain_label(acq, b.group)),
                         x: b.exposure_s,
                         value: v,
                         var: var_of_var(v, m4, rv, n, h as f64),
+                        count_floor: None,
                     });
                 }
             }
         } else if b.frames.len() > 2 {
             match b.light {
                 Light::Dark if dark_stack.is_none() => {
-                    let (s, img) = stack_stats(&b.frames, b.exposure_s, 0.0, t.dark_dn, w, h);
+                    let img = stack_mean(&b.frames);
+                    let (p, wv) = waves(&img, w, h);
+                    let (s, img) = stack_stats(&b.frames, b.exposure_s, 0.0, t.dark_dn, (w, h), &wv);
                     dark_stack = Some(s);
                     dark_img = Some(img);
+                    peaks = p;
                 }
                 Light::Bright(p) if bright_stack.is_none() => {
-                    let (s, img) = stack_stats(&b.frames, b.exposure_s, p, t.bright_dn, w, h);
+                    let (s, img) = stack_stats(&b.frames, b.exposure_s, p, t.bright_dn, (w, h), &[]);
                     bright_stack = Some(s);
                     bright_img = Some(img);
                 }
@@ -420,6 +597,7 @@ pub fn compute(acq: &Acquisition, t: &Thresholds) -> Stats {
             x: s.photons,
             value: s.mean_dn,
             var: *mv,
+            count_floor: None,
         });
         entries.push(Entry {
             family: "photon_transfer",
@@ -427,6 +605,7 @@ pub fn compute(acq: &Acquisition, t: &Thresholds) -> Stats {
             x: s.photons,
             value: s.var_dn2,
             var: var_of_var(s.var_dn2, *m4, *rv, n, h as f64),
+            count_floor: None,
         });
     }
     if let Some(d) = darks.first() {
@@ -436,6 +615,7 @@ pub fn compute(acq: &Acquisition, t: &Thresholds) -> Stats {
             x: 0.0,
             value: d.diff_row_var_dn2,
             var: 2.0 * d.diff_row_var_dn2.powi(2) / h as f64,
+            count_floor: None,
         });
     }
     let nr = ((w.saturating_sub(1)) * (h.saturating_sub(1))).max(1) as f64;
@@ -447,22 +627,24 @@ pub fn compute(acq: &Acquisition, t: &Thresholds) -> Stats {
             x: 0.0,
             value,
             var: 2.0 * value * value / dof,
+            count_floor: None,
         };
         entries.push(e("residual variance", s.resid_var_dn2, nr));
         entries.push(e("row-profile variance", s.row_var_dn2, h as f64));
         entries.push(e("column-profile variance", s.col_var_dn2, w as f64));
-        let c = |label: &str, value: f64| Entry {
+        let c = |label: &str, value: f64, threshold: f64| Entry {
             family: "tails",
             label: format!("{name} stack {label}"),
             x: 0.0,
             value,
             var: value + 0.5,
+            count_floor: Some(n * normal_tail(threshold / s.tail_sd_dn.max(1e-9))),
         };
         if name == "dark" {
-            entries.push(c("pixels above T", s.above_t));
-            entries.push(c("pixels above 3T", s.above_3t));
+            entries.push(c("pixels above T", s.above_t, t.dark_dn));
+            entries.push(c("pixels above 3T", s.above_3t, 3.0 * t.dark_dn));
         } else {
-            entries.push(c("pixels below -T", s.below_t));
+            entries.push(c("pixels below -T", s.below_t, t.bright_dn));
         }
     }
     let falloff = bright_img.as_ref().map(|b| {
@@ -480,25 +662,15 @@ pub fn compute(acq: &Acquisition, t: &Thresholds) -> Stats {
         (c, vc)
     });
     if let Some((c, vc)) = falloff {
-        entries.push(Entry { family: "spatial", label: "bright stack fall-off".into(), x: 0.0, value: c, var: vc });
+        entries.push(Entry {
+            family: "spatial",
+            label: "bright stack fall-off".into(),
+            x: 0.0,
+            value: c,
+            var: vc,
+            count_floor: None,
+        });
     }
-    let peaks: Vec<Peak> = match &dark_img {
-        Some(d) => {
-            let (found, median) = peaks_2d(d, w, h, 2, 2);
-            let median = median.max(1e-12);
-            let floor = median / std::f64::consts::LN_2;
-            found
-                .into_iter()
-                .map(|(p, fx, fy)| Peak {
-                    ratio: p / median,
-                    fx_cycles_per_px: fx,
-                    fy_cycles_per_px: fy,
-                    amp2_dn2: (p - floor).max(0.0),
-                })
-                .collect()
-        }
-        None => Vec::new(),
-    };
     for (i, p) in peaks.iter().enumerate() {
         entries.push(Entry {
             family: "spectrum",
@@ -508,9 +680,22 @@ pub fn compute(acq: &Acquisition, t: &Thresholds) -> Stats {
             // Noise only: the maximum of many exponential bins spreads by ~1.3 floors (1.85
             // medians); a sinusoid adds its cross term with the noise.
             var: 1.85f64.powi(2) + 2.0 * p.ratio,
+            count_floor: None,
         });
     }
-    Stats { width: w, height: h, steps, darks, dark_stack, bright_stack, falloff, peaks, entries, thresholds: Some(*t) }
+    Stats {
+        width: w,
+        height: h,
+        steps,
+        darks,
+        dark_stack,
+        bright_stack,
+        falloff,
+        peaks,
+        entries,
+        thresholds: Some(*t),
+        gains_db: acq.gains_db.clone(),
+    }
 }
 
 /// The families in report order.
@@ -539,6 +724,15 @@ pub struct Gap {
     pub residuals: Vec<f64>,
 }
 
+/// Normalised residual of one entry: `(m - s) / sigma`, or for a tail count the signed square
+/// root of its deviance ([`count_deviance`]).
+fn entry_residual(m: &Entry, s: &Entry) -> f64 {
+    match s.count_floor {
+        Some(floor) => (m.value - s.value).signum() * count_deviance(m.value, s.value, floor).sqrt(),
+        None => (m.value - s.value) / (m.var + s.var).max(1e-18).sqrt(),
+    }
+}
+
 /// Compares simulated statistics with measured ones (entries must correspond one to one).
 #[must_use]
 pub fn gap(measured: &Stats, simulated: &Stats) -> Gap {
@@ -551,8 +745,7 @@ pub fn gap(measured: &Stats, simulated: &Stats) -> Gap {
             if m.family != fam {
                 continue;
             }
-            let sd = (m.var + s.var).max(1e-18).sqrt();
-            let z = (m.value - s.value) / sd;
+            let z = entry_residual(m, s);
             chi2 += z * z;
             dof += 1;
         }
@@ -562,7 +755,7 @@ pub fn gap(measured: &Stats, simulated: &Stats) -> Gap {
         }
     }
     for (m, s) in measured.entries.iter().zip(&simulated.entries) {
-        residuals.push((m.value - s.value) / (m.var + s.var).max(1e-18).sqrt());
+        residuals.push(entry_residual(m, s));
     }
     let n = residuals.len();
     let g = families.iter().map(|f| f.chi2_per_dof).sum::<f64>() / families.len().max(1) as f64 - 1.0;

@@ -5,7 +5,9 @@
 //! Layout (small, so a case runs in well under a second): 64 x 48 pixels, 12 bit, 12 radiance
 //! steps of 2 frames at 10 ms, dark pairs at 10, 40 and 160 ms (a dark exposure series, so
 //! dark current is measurable), 16 bright frames at half scale and 16 dark frames at 10 ms.
-//! `read_noise_split` is never hidden: it needs two gains and a descriptor holds one.
+//! `read_noise_split` needs two gains or more: [`random_multigain_case`] hides it in an
+//! acquisition over several gains ([`layout_gains`]), written as one descriptor per gain
+//! ([`write_multigain`]) or as one photon-transfer CSV ([`write_csv`]).
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -19,7 +21,19 @@ use crate::sensor::noise::{self, Effects};
 
 /// Effects a hidden case may switch on: every effect the workflow can name, so a test can
 /// catch both a missed effect and one it never tries.
-pub const HIDDEN: [&str; 10] = super::fit::CANDIDATES;
+/// (`read_noise_split` only in [`random_multigain_case`]: one gain cannot show it.)
+pub const HIDDEN: [&str; 10] = [
+    "black_level",
+    "dark_current",
+    "saturation",
+    "nonlinearity",
+    "dsnu",
+    "prnu",
+    "hot_pixels",
+    "row_column_noise",
+    "periodic_pattern",
+    "illumination_falloff",
+];
 
 const WIDTH: usize = 64;
 const HEIGHT: usize = 48;
@@ -124,7 +138,7 @@ pub fn layout(model: &GapModel) -> Acquisition {
     let max = f64::from((1u32 << BITS) - 1);
     let responsivity = model.sensor.system_gain_dn_per_e * model.sensor.quantum_efficiency;
     let top = 0.9 * max / responsivity;
-    let empty = |light, exposure_s, n: usize| Block { light, exposure_s, frames: vec![Vec::new(); n] };
+    let empty = |light, exposure_s, n: usize| Block { light, exposure_s, group: 0, frames: vec![Vec::new(); n] };
     let mut blocks: Vec<Block> =
         (1..=STEPS).map(|i| empty(Light::Bright(top * i as f64 / STEPS as f64), EXPOSURE_S, 2)).collect();
     for t in [EXPOSURE_S, 4.0 * EXPOSURE_S, 16.0 * EXPOSURE_S] {
@@ -132,31 +146,62 @@ pub fn layout(model: &GapModel) -> Acquisition {
     }
     blocks.push(empty(Light::Bright(0.5 * top), EXPOSURE_S, STACK_FRAMES));
     blocks.push(empty(Light::Dark, EXPOSURE_S, STACK_FRAMES));
-    Acquisition { width: WIDTH, height: HEIGHT, bits: BITS, blocks }
+    Acquisition { width: WIDTH, height: HEIGHT, bits: BITS, blocks, gains_db: vec![0.0] }
 }
 
-/// A data-set writing failure.
-#[derive(Debug, thiserror::Error)]
-pub enum WriteDataError {
-    #[error("cannot write {}: {source}", path.display())]
-    Io {
-        path: PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
-    #[error("cannot encode {}: {message}", path.display())]
-    Image { path: PathBuf, message: String },
+/// A case over several gains: a black level of 150..250 DN (EMVA 1288 requires the offset to
+/// keep the dark signal unclipped; without it the dark frames at 12 dB clip at 0 DN, where mean
+/// and variance of a pair are strongly correlated and the chi-square counts one fluctuation
+/// twice), plus `read_noise_split` (post-gain fraction 0.3..0.8 of the read-noise variance) and
+/// `n_other` (0..=1) further effects of [`HIDDEN`]; `n_other` None: no split and nothing else.
+/// Every effect switched on is in `hidden`.
+#[must_use]
+pub fn random_multigain_case(seed: u64, n_other: Option<usize>) -> HiddenCase {
+    let mut case = random_case(seed, n_other.unwrap_or(0).min(1));
+    let mut r = rng::stream(seed, "gap/testdata/multigain");
+    let e = &mut case.model.sensor.effects;
+    if !e.black_level.enabled {
+        e.black_level = noise::BlackLevel { enabled: true, offset_dn: r.random_range(150.0..250.0) };
+        case.hidden.push("black_level");
+    }
+    if n_other.is_some() {
+        e.read_noise_split = noise::ReadNoiseSplit { enabled: true, post_gain_fraction: r.random_range(0.3..0.8) };
+        case.hidden.push("read_noise_split");
+    }
+    case.hidden.sort_unstable();
+    case
 }
 
-/// Simulates `model` over `layout` with `seed` and writes `dir/EMVA1288_Data.txt` and its
-/// images; returns the descriptor path.
-pub fn write_dataset(dir: &Path, model: &GapModel, layout: &Acquisition, seed: u64) -> Result<PathBuf, WriteDataError> {
+/// [`layout`] at 0 dB (group 0, with the spatial stacks) plus, per further gain of `gains_db`,
+/// its radiance steps (photons scaled down by the gain, so the top step stays near 90 % of the
+/// range) and its dark pairs at 10, 40 and 160 ms.
+#[must_use]
+pub fn layout_gains(model: &GapModel, gains_db: &[f64]) -> Acquisition {
+    let mut acq = layout(model);
+    let base: Vec<Block> = acq.blocks.iter().filter(|b| b.frames.len() == 2).cloned().collect();
+    acq.gains_db = vec![0.0];
+    for &g in gains_db.iter().filter(|g| **g != 0.0) {
+        let group = acq.gains_db.len();
+        acq.gains_db.push(g);
+        let f = noise::gain_factor(g);
+        for b in &base {
+            let light = match b.light {
+                Light::Bright(p) => Light::Bright(p / f),
+                Light::Dark => Light::Dark,
+            };
+            acq.blocks.push(Block { light, group, ..b.clone() });
+        }
+    }
+    acq
+}
+
+/// Writes `acq` (simulated) as `dir/EMVA1288_Data.txt` and its images.
+fn write_acquisition(dir: &Path, acq: &Acquisition) -> Result<PathBuf, WriteDataError> {
     let io = |path: &Path| {
         let path = path.to_path_buf();
         move |source| WriteDataError::Io { path: path.clone(), source }
     };
     std::fs::create_dir_all(dir.join("images")).map_err(io(dir))?;
-    let acq = simulate_acquisition(model, layout, seed, None);
     let mut text = String::from("# hidden-effect data set written by scene_gen::gap::testdata\nv 3.0\n");
     let _ = writeln!(text, "n {} {} {}", acq.bits, acq.width, acq.height);
     for (bi, b) in acq.blocks.iter().enumerate() {
@@ -183,4 +228,54 @@ pub fn write_dataset(dir: &Path, model: &GapModel, layout: &Acquisition, seed: u
     let desc = dir.join("EMVA1288_Data.txt");
     std::fs::write(&desc, text).map_err(io(&desc))?;
     Ok(desc)
+}
+
+/// Simulates `model` over a multi-gain `layout` ([`layout_gains`]) and writes one descriptor
+/// per gain group, `dir/gain<i>/EMVA1288_Data.txt` (the gain itself is not written: the
+/// workflow measures it); returns the descriptors, reference gain first.
+pub fn write_multigain(
+    dir: &Path,
+    model: &GapModel,
+    layout: &Acquisition,
+    seed: u64,
+) -> Result<Vec<PathBuf>, WriteDataError> {
+    let acq = simulate_acquisition(model, layout, seed, None);
+    (0..acq.gains_db.len())
+        .map(|g| {
+            let part = Acquisition {
+                blocks: acq.blocks.iter().filter(|b| b.group == g).map(|b| Block { group: 0, ..b.clone() }).collect(),
+                gains_db: vec![0.0],
+                ..acq.clone()
+            };
+            write_acquisition(&dir.join(format!("gain{g}")), &part)
+        })
+        .collect()
+}
+
+/// Simulates `model` over `layout` and writes its photon-transfer CSV to `path` (see
+/// [`super::csv::to_csv`]).
+pub fn write_csv(path: &Path, model: &GapModel, layout: &Acquisition, seed: u64) -> Result<(), WriteDataError> {
+    let acq = simulate_acquisition(model, layout, seed, None);
+    std::fs::write(path, super::csv::to_csv(&acq))
+        .map_err(|source| WriteDataError::Io { path: path.to_path_buf(), source })
+}
+
+/// A data-set writing failure.
+#[derive(Debug, thiserror::Error)]
+pub enum WriteDataError {
+    #[error("cannot write {}: {source}", path.display())]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("cannot encode {}: {message}", path.display())]
+    Image { path: PathBuf, message: String },
+}
+
+/// Simulates `model` over `layout` with `seed` and writes `dir/EMVA1288_Data.txt` and its
+/// images; returns the descriptor path.
+pub fn write_dataset(dir: &Path, model: &GapModel, layout: &Acquisition, seed: u64) -> Result<PathBuf, WriteDataError> {
+    let acq = simulate_acquisition(model, layout, seed, None);
+    write_acquisition(dir, &acq)
 }
