@@ -161,15 +161,8 @@ pub fn load_image(path: &Path, layout: &Layout) -> Result<Vec<f64>, TargetError>
     }
 }
 
-/// One accepted step.
-#[derive(Debug, Clone, Serialize)]
-pub struct Step {
-    pub effect: String,
-    pub params: serde_json::Value,
-    pub gap_before: f64,
-    pub gap_after: f64,
-    pub evidence: String,
-}
+/// One accepted step: the same record (and JSON) as the sensor-data workflow's.
+pub use crate::gap::Step;
 
 /// One candidate tried in a round.
 #[derive(Debug, Clone, Serialize)]
