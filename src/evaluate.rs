@@ -81,21 +81,19 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::camera_spec::{CameraSpec, NoiseKind, ResolvedCamera, SpecError};
-use crate::config::GeneratorConfig;
 use crate::detection::coco_eval::{self, CocoCategory, CocoGroundTruth, CocoImage, DetectionRecord};
 use crate::detection::ground_truth::to_annotations;
 use crate::detection::plugin::{self, PluginError, PluginRequest};
 use crate::detection::thresholds::{self, Crossing, FrameVisibility, ThresholdConfig};
 use crate::detection::{DetectabilityModel, Detector, DetectorInput, GroundTruthConfig, frame_ground_truth};
-use crate::generate::generate;
+use crate::house::{HouseError, WalkedHouse, embedded_library, walked_house};
 use crate::isp::{Isp, OutputRule, to_8bit};
-use crate::library::Library;
 use crate::lights::{DAY_TARGET_LUX, NIGHT_TARGET_LUX, TARGET_PLANE_M};
 use crate::optics::{OpticsInput, agent_velocity};
 use crate::orb::{FundamentalRansac, Orb, match_and_verify};
 use crate::radiometry::capture_frame;
 use crate::render::{Frame, RenderError, RenderSettings, Renderer, measure_mean_illuminance};
-use crate::scene::{LightGroup, ObjectClass, Scene, THRESHOLD_CLASS_ID, THRESHOLD_CLASS_NAME};
+use crate::scene::{LightGroup, ObjectClass, THRESHOLD_CLASS_ID, THRESHOLD_CLASS_NAME};
 use crate::sensor::Catalog;
 use crate::trajectory::{self, TrajectoryParams};
 
@@ -308,16 +306,8 @@ pub enum EvalError {
     NoFrames,
     #[error("speed_m_s must be finite and positive, got {0}")]
     BadSpeed(f64),
-    #[error("libraries: {0}")]
-    Library(String),
-    #[error("house of seed {seed}: {why}")]
-    Generate { seed: u64, why: String },
-    #[error("walk in house {seed}: {source}")]
-    Trajectory {
-        seed: u64,
-        #[source]
-        source: trajectory::TrajectoryError,
-    },
+    #[error(transparent)]
+    House(#[from] HouseError),
     #[error("rendering house {seed}: {source}")]
     Render {
         seed: u64,
@@ -537,7 +527,7 @@ fn compute(
     COMPUTED.fetch_add(1, Ordering::SeqCst);
     let wall = Instant::now();
     let mut timing = Timing::default();
-    let library = Library::embedded().map_err(|e| EvalError::Library(e.to_string()))?;
+    let library = embedded_library()?;
     let gains = [spec.gain_day_db, spec.gain_night_db];
     let names = ["day", "night"];
     let mut accs = vec![Acc::default(), Acc::default()];
@@ -562,14 +552,12 @@ fn compute(
 
     for &seed in seeds {
         let setup = Instant::now();
-        let scene: Scene = generate(&GeneratorConfig { seed, ..GeneratorConfig::default() }, &library)
-            .map_err(|e| EvalError::Generate { seed, why: e.to_string() })?;
         let params = TrajectoryParams {
             height_m: spec.height_m,
             speed_m_per_s: config.speed_m_s as f32,
             ..TrajectoryParams::default()
         };
-        let walk = trajectory::plan(&scene, &params).map_err(|source| EvalError::Trajectory { seed, source })?;
+        let WalkedHouse { scene, walk } = walked_house(&library, seed, &params)?;
         let renderer = Renderer::new(&scene, config.render);
         let scales = scenario_light_scales(&renderer, seed, &[LightGroup::Day, LightGroup::Night])?;
         let isps: Vec<Isp> = scales

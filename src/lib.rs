@@ -29,6 +29,7 @@
 //! Camera simulation:
 //! * [`camera_spec`]: camera candidates (sensor, lens, mounting, exposure) from TOML or the
 //!   inline `SENSOR,key=value` form, resolved against the catalog.
+//! * [`house`]: a seeded house with the agent's walk, where render, evaluate and dataset start.
 //! * [`trajectory`]: the agent's walk through every room and door (the evaluator's poses).
 //! * [`render`]: the CPU ray tracer (radiance per light group, depth, instance/class ids).
 //! * [`optics`]: diffraction, defocus and motion blur of the sensor-plane irradiance.
@@ -76,6 +77,7 @@ pub mod export;
 pub mod floorplan;
 pub mod gap;
 pub mod generate;
+pub mod house;
 pub mod isp;
 pub mod library;
 pub mod lights;

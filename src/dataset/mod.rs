@@ -43,16 +43,14 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::camera_spec::{CameraSpec, ResolvedCamera, SpecError};
-use crate::config::GeneratorConfig;
 use crate::detection::{GroundTruthConfig, frame_ground_truth};
 use crate::evaluate::{EvalError, scenario_light_scales};
-use crate::generate::generate;
-use crate::library::Library;
+use crate::house::{HouseError, WalkedHouse, embedded_library, walked_house};
 use crate::radiometry::capture_frame;
 use crate::render::{RenderError, RenderSettings, Renderer};
 use crate::scene::{LightGroup, ObjectClass, THRESHOLD_CLASS_ID, THRESHOLD_CLASS_NAME};
 use crate::sensor::Catalog;
-use crate::trajectory::{self, TrajectoryParams};
+use crate::trajectory::TrajectoryParams;
 
 pub use rle::{Rle, RleJson};
 pub use shard::{SeedRange, Shard, ShardError, parse_seeds};
@@ -77,16 +75,8 @@ pub enum DatasetError {
          settings"
     )]
     Mismatch { dir: PathBuf },
-    #[error("libraries: {0}")]
-    Library(String),
-    #[error("house of seed {seed}: {why}")]
-    Generate { seed: u64, why: String },
-    #[error("walk in house {seed}: {source}")]
-    Trajectory {
-        seed: u64,
-        #[source]
-        source: trajectory::TrajectoryError,
-    },
+    #[error(transparent)]
+    House(#[from] HouseError),
     #[error("rendering house {seed}: {source}")]
     Render {
         seed: u64,
@@ -529,11 +519,9 @@ impl Dataset {
             }
             return Ok(SeedReport { frames: n, rendered: 0, skipped: n });
         }
-        let library = Library::embedded().map_err(|e| DatasetError::Library(e.to_string()))?;
-        let scene = generate(&GeneratorConfig { seed, ..GeneratorConfig::default() }, &library)
-            .map_err(|e| DatasetError::Generate { seed, why: e.to_string() })?;
+        let library = embedded_library()?;
         let params = TrajectoryParams { height_m: self.spec.camera.height_m, ..TrajectoryParams::default() };
-        let walk = trajectory::plan(&scene, &params).map_err(|source| DatasetError::Trajectory { seed, source })?;
+        let WalkedHouse { scene, walk } = walked_house(&library, seed, &params)?;
         if walk.poses.len() > MAX_POSES {
             return Err(DatasetError::Limit {
                 seed,

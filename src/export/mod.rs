@@ -7,8 +7,8 @@ pub mod plan;
 pub mod usd;
 
 use std::io::Write;
-use std::sync::atomic::{AtomicU64, Ordering};
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
 
 /// An output file could not be written.
 #[derive(Debug, thiserror::Error)]
