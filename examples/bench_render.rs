@@ -183,11 +183,25 @@ fn hit_points(origin: Vec3, directions: &[Vec3], t: &[f32]) -> Vec<Vec3> {
     directions.iter().zip(t).filter(|(_, t)| t.is_finite()).map(|(d, t)| origin + *d * *t).collect()
 }
 
+/// FNV-1a of every buffer of a frame (radiance, depth, ids, normals, as little-endian bytes):
+/// a change of any bit of the output changes it, so speed-ups that must keep the output
+/// bit-identical can be checked against a build from before them.
+fn frame_hash(frame: &scene_gen::render::Frame) -> String {
+    let mut bytes = Vec::new();
+    for c in frame.day_nit.iter().chain(&frame.night_nit).chain(&frame.normal) {
+        bytes.extend(c.iter().flat_map(|v| v.to_le_bytes()));
+    }
+    bytes.extend(frame.depth_m.iter().flat_map(|v| v.to_le_bytes()));
+    bytes.extend(frame.instance_id.iter().flat_map(|v| v.to_le_bytes()));
+    bytes.extend(frame.class_id.iter().flat_map(|v| v.to_le_bytes()));
+    format!("{:016x}", scene_gen::rng::fnv1a64(&bytes))
+}
+
 /// Wall time of one day + night pair: one render, then per group the scaled radiance through
 /// the sensor model to DN. Returns (light scaling s, render s, capture s of both groups, CPU s
-/// of render and captures). Timed once: a pair takes seconds, and three would take minutes on
+/// of render and captures, [`frame_hash`] of the render). Timed once: a pair takes seconds, and three would take minutes on
 /// the loaded machine.
-fn frame_pair(setup: &Setup, renderer: &Renderer<'_>, w: u32, h: u32) -> BoxResult<(f64, f64, f64, f64)> {
+fn frame_pair(setup: &Setup, renderer: &Renderer<'_>, w: u32, h: u32) -> BoxResult<(f64, f64, f64, f64, String)> {
     let camera = setup.camera(w, h);
     let resolved = setup.resolved_at(w, h);
     let start = Instant::now();
@@ -207,7 +221,7 @@ fn frame_pair(setup: &Setup, renderer: &Renderer<'_>, w: u32, h: u32) -> BoxResu
         std::hint::black_box(cap.mean_variance());
     }
     let capture_s = start.elapsed().as_secs_f64();
-    Ok((scale_s, render_s, capture_s, process_cpu_s() - cpu0))
+    Ok((scale_s, render_s, capture_s, process_cpu_s() - cpu0, frame_hash(&frame)))
 }
 
 struct Args {
@@ -314,20 +328,24 @@ fn run_case(setup: &Setup, args: &Args, case: &str) -> BoxResult<()> {
             };
             let direct = Renderer::new(&one_light, settings);
             let (times, frame) = timed(|| pool.install(|| direct.render(&camera)));
-            let mean = frame?.night_nit.iter().map(|c| f64::from(c[1])).sum::<f64>() / n;
+            let frame = frame?;
+            let hash = frame_hash(&frame);
+            let mean = frame.night_nit.iter().map(|c| f64::from(c[1])).sum::<f64>() / n;
             // Rays per pixel: the label ray, spp camera rays, a shadow ray per camera-ray hit.
             let hits = t.iter().filter(|t| t.is_finite()).count() as f64 / n;
             let rays = n * (1.0 + f64::from(args.spp) * (1.0 + hits));
-            (times, rays as usize, serde_json::json!({ "spp": args.spp, "mean_green_nit": mean }))
+            (times, rays as usize, serde_json::json!({ "spp": args.spp, "mean_green_nit": mean, "frame_fnv": hash }))
         }
         "pair" => {
-            let (scale_s, render_s, capture_s, cpu_s) =
+            let (scale_s, render_s, capture_s, cpu_s, hash) =
                 pool.install(|| frame_pair(setup, &renderer, args.width, args.height))?;
             LAST_CPU_S.with(|c| c.set(cpu_s));
             (
                 vec![render_s + capture_s],
                 0,
-                serde_json::json!({ "light_scale_s": scale_s, "render_s": render_s, "capture_s": capture_s }),
+                serde_json::json!({
+                    "light_scale_s": scale_s, "render_s": render_s, "capture_s": capture_s, "frame_fnv": hash,
+                }),
             )
         }
         _ => return Err(format!("--case {case}: expected primary, shadow, direct or pair").into()),
@@ -401,7 +419,7 @@ fn main() -> BoxResult<()> {
     }
     for threads in [1, 2] {
         let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build()?;
-        let (scale_s, render_s, capture_s, cpu_s) = pool.install(|| frame_pair(&setup, &renderer, 1280, 960))?;
+        let (scale_s, render_s, capture_s, cpu_s, _) = pool.install(|| frame_pair(&setup, &renderer, 1280, 960))?;
         println!(
             "day + night pair 1280x960, standard, {threads} thread(s): {:.2} s wall, {cpu_s:.2} s CPU \
              (render {render_s:.2} s + capture {capture_s:.3} s); light scaling once per scene {scale_s:.2} s",
