@@ -19,7 +19,9 @@
 //! * `direct`: a real render (centre ray for labels + `--spp` jittered camera rays per pixel, one
 //!   shadow ray per hit, textured Lambertian shading) of the house lit by that one point light;
 //!   `--spp` must be a square;
-//! * `pair`: the day + night pair at `--res` (light scaling measured once, outside the time).
+//! * `pair`: the day + night pair at `--res` (light scaling measured once, outside the time);
+//! * `speckle`: a `preview` day frame with light culling threshold `--cull` (default 0.1) and
+//!   its speckle (see [`speckle`]): how noisy the culling roulette leaves a one-sample frame.
 //!
 //! Every resolution keeps the horizontal field of view of the full 1936 px sensor (the pixel
 //! pitch is scaled), so all sizes show the same scene. `--camera-out` writes the camera (pose,
@@ -224,6 +226,35 @@ fn frame_pair(setup: &Setup, renderer: &Renderer<'_>, w: u32, h: u32) -> BoxResu
     Ok((scale_s, render_s, capture_s, process_cpu_s() - cpu0, frame_hash(&frame)))
 }
 
+/// Speckle of a frame's day luminance: the mean over pixels of `|Y - m| / m`, `m` the median of
+/// the 5x5 neighbourhood, where `m > 0`; and how many pixels have `m = 0` (most of their
+/// neighbours black, the mark of a noisy estimate in a lit room). Edges and texture add a floor
+/// that no sampling change removes; the figure is for comparing settings on one view.
+fn speckle(frame: &scene_gen::render::Frame, w: u32, h: u32) -> (f64, usize) {
+    let y: Vec<f32> = scene_gen::render::Frame::luminance_nit(&frame.day_nit);
+    let (mut sum, mut n, mut zero) = (0.0f64, 0usize, 0usize);
+    let mut window = Vec::with_capacity(25);
+    for py in 2..h.saturating_sub(2) {
+        for px in 2..w.saturating_sub(2) {
+            window.clear();
+            for dy in 0..5 {
+                for dx in 0..5 {
+                    window.push(y[((py + dy - 2) * w + px + dx - 2) as usize]);
+                }
+            }
+            window.sort_by(f32::total_cmp);
+            let m = window[12];
+            if m > 0.0 {
+                sum += f64::from(((y[(py * w + px) as usize] - m) / m).abs());
+                n += 1;
+            } else {
+                zero += 1;
+            }
+        }
+    }
+    (sum / n.max(1) as f64, zero)
+}
+
 struct Args {
     case: Option<String>,
     width: u32,
@@ -232,10 +263,12 @@ struct Args {
     spp: u32,
     camera_out: Option<PathBuf>,
     depth_out: Option<PathBuf>,
+    cull: f32,
 }
 
 fn parse_args() -> BoxResult<Args> {
-    let mut args = Args { case: None, width: 640, height: 480, threads: 1, spp: 1, camera_out: None, depth_out: None };
+    let mut args =
+        Args { case: None, width: 640, height: 480, threads: 1, spp: 1, camera_out: None, depth_out: None, cull: 0.1 };
     let mut it = std::env::args().skip(1);
     while let Some(flag) = it.next() {
         let mut value = || it.next().ok_or_else(|| format!("{flag} needs a value"));
@@ -250,6 +283,7 @@ fn parse_args() -> BoxResult<Args> {
             "--spp" => args.spp = value()?.parse()?,
             "--camera-out" => args.camera_out = Some(value()?.into()),
             "--depth-out" => args.depth_out = Some(value()?.into()),
+            "--cull" => args.cull = value()?.parse()?,
             _ => return Err(format!("unknown argument {flag}").into()),
         }
     }
@@ -348,7 +382,14 @@ fn run_case(setup: &Setup, args: &Args, case: &str) -> BoxResult<()> {
                 }),
             )
         }
-        _ => return Err(format!("--case {case}: expected primary, shadow, direct or pair").into()),
+        "speckle" => {
+            let settings = RenderSettings { light_cull: args.cull, ..RenderSettings::preview() };
+            let preview = Renderer::new(&setup.scene, settings);
+            let (times, frame) = timed(|| pool.install(|| preview.render(&camera)));
+            let (speckle, zero_median) = speckle(&frame?, args.width, args.height);
+            (times, 0, serde_json::json!({ "cull": args.cull, "speckle": speckle, "zero_median_px": zero_median }))
+        }
+        _ => return Err(format!("--case {case}: expected primary, shadow, direct, pair or speckle").into()),
     };
     let b = best(&times);
     let mut out = serde_json::json!({
