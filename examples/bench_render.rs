@@ -19,7 +19,9 @@
 //! * `direct`: a real render (centre ray for labels + `--spp` jittered camera rays per pixel, one
 //!   shadow ray per hit, textured Lambertian shading) of the house lit by that one point light;
 //!   `--spp` must be a square;
-//! * `pair`: the day + night pair at `--res` (light scaling measured once, outside the time).
+//! * `pair`: the day + night pair at `--res` (light scaling measured once, outside the time);
+//! * `speckle`: a `preview` day frame with light culling threshold `--cull` (default 0.1) and
+//!   its speckle (see [`speckle`]): how noisy the culling roulette leaves a one-sample frame.
 //!
 //! Every resolution keeps the horizontal field of view of the full 1936 px sensor (the pixel
 //! pitch is scaled), so all sizes show the same scene. `--camera-out` writes the camera (pose,
@@ -183,11 +185,25 @@ fn hit_points(origin: Vec3, directions: &[Vec3], t: &[f32]) -> Vec<Vec3> {
     directions.iter().zip(t).filter(|(_, t)| t.is_finite()).map(|(d, t)| origin + *d * *t).collect()
 }
 
+/// FNV-1a of every buffer of a frame (radiance, depth, ids, normals, as little-endian bytes):
+/// a change of any bit of the output changes it, so speed-ups that must keep the output
+/// bit-identical can be checked against a build from before them.
+fn frame_hash(frame: &scene_gen::render::Frame) -> String {
+    let mut bytes = Vec::new();
+    for c in frame.day_nit.iter().chain(&frame.night_nit).chain(&frame.normal) {
+        bytes.extend(c.iter().flat_map(|v| v.to_le_bytes()));
+    }
+    bytes.extend(frame.depth_m.iter().flat_map(|v| v.to_le_bytes()));
+    bytes.extend(frame.instance_id.iter().flat_map(|v| v.to_le_bytes()));
+    bytes.extend(frame.class_id.iter().flat_map(|v| v.to_le_bytes()));
+    format!("{:016x}", scene_gen::rng::fnv1a64(&bytes))
+}
+
 /// Wall time of one day + night pair: one render, then per group the scaled radiance through
 /// the sensor model to DN. Returns (light scaling s, render s, capture s of both groups, CPU s
-/// of render and captures). Timed once: a pair takes seconds, and three would take minutes on
+/// of render and captures, [`frame_hash`] of the render). Timed once: a pair takes seconds, and three would take minutes on
 /// the loaded machine.
-fn frame_pair(setup: &Setup, renderer: &Renderer<'_>, w: u32, h: u32) -> BoxResult<(f64, f64, f64, f64)> {
+fn frame_pair(setup: &Setup, renderer: &Renderer<'_>, w: u32, h: u32) -> BoxResult<(f64, f64, f64, f64, String)> {
     let camera = setup.camera(w, h);
     let resolved = setup.resolved_at(w, h);
     let start = Instant::now();
@@ -207,7 +223,36 @@ fn frame_pair(setup: &Setup, renderer: &Renderer<'_>, w: u32, h: u32) -> BoxResu
         std::hint::black_box(cap.mean_variance());
     }
     let capture_s = start.elapsed().as_secs_f64();
-    Ok((scale_s, render_s, capture_s, process_cpu_s() - cpu0))
+    Ok((scale_s, render_s, capture_s, process_cpu_s() - cpu0, frame_hash(&frame)))
+}
+
+/// Speckle of a frame's day luminance: the mean over pixels of `|Y - m| / m`, `m` the median of
+/// the 5x5 neighbourhood, where `m > 0`; and how many pixels have `m = 0` (most of their
+/// neighbours black, the mark of a noisy estimate in a lit room). Edges and texture add a floor
+/// that no sampling change removes; the figure is for comparing settings on one view.
+fn speckle(frame: &scene_gen::render::Frame, w: u32, h: u32) -> (f64, usize) {
+    let y: Vec<f32> = scene_gen::render::Frame::luminance_nit(&frame.day_nit);
+    let (mut sum, mut n, mut zero) = (0.0f64, 0usize, 0usize);
+    let mut window = Vec::with_capacity(25);
+    for py in 2..h.saturating_sub(2) {
+        for px in 2..w.saturating_sub(2) {
+            window.clear();
+            for dy in 0..5 {
+                for dx in 0..5 {
+                    window.push(y[((py + dy - 2) * w + px + dx - 2) as usize]);
+                }
+            }
+            window.sort_by(f32::total_cmp);
+            let m = window[12];
+            if m > 0.0 {
+                sum += f64::from(((y[(py * w + px) as usize] - m) / m).abs());
+                n += 1;
+            } else {
+                zero += 1;
+            }
+        }
+    }
+    (sum / n.max(1) as f64, zero)
 }
 
 struct Args {
@@ -218,10 +263,12 @@ struct Args {
     spp: u32,
     camera_out: Option<PathBuf>,
     depth_out: Option<PathBuf>,
+    cull: f32,
 }
 
 fn parse_args() -> BoxResult<Args> {
-    let mut args = Args { case: None, width: 640, height: 480, threads: 1, spp: 1, camera_out: None, depth_out: None };
+    let mut args =
+        Args { case: None, width: 640, height: 480, threads: 1, spp: 1, camera_out: None, depth_out: None, cull: 0.1 };
     let mut it = std::env::args().skip(1);
     while let Some(flag) = it.next() {
         let mut value = || it.next().ok_or_else(|| format!("{flag} needs a value"));
@@ -236,6 +283,7 @@ fn parse_args() -> BoxResult<Args> {
             "--spp" => args.spp = value()?.parse()?,
             "--camera-out" => args.camera_out = Some(value()?.into()),
             "--depth-out" => args.depth_out = Some(value()?.into()),
+            "--cull" => args.cull = value()?.parse()?,
             _ => return Err(format!("unknown argument {flag}").into()),
         }
     }
@@ -314,23 +362,34 @@ fn run_case(setup: &Setup, args: &Args, case: &str) -> BoxResult<()> {
             };
             let direct = Renderer::new(&one_light, settings);
             let (times, frame) = timed(|| pool.install(|| direct.render(&camera)));
-            let mean = frame?.night_nit.iter().map(|c| f64::from(c[1])).sum::<f64>() / n;
+            let frame = frame?;
+            let hash = frame_hash(&frame);
+            let mean = frame.night_nit.iter().map(|c| f64::from(c[1])).sum::<f64>() / n;
             // Rays per pixel: the label ray, spp camera rays, a shadow ray per camera-ray hit.
             let hits = t.iter().filter(|t| t.is_finite()).count() as f64 / n;
             let rays = n * (1.0 + f64::from(args.spp) * (1.0 + hits));
-            (times, rays as usize, serde_json::json!({ "spp": args.spp, "mean_green_nit": mean }))
+            (times, rays as usize, serde_json::json!({ "spp": args.spp, "mean_green_nit": mean, "frame_fnv": hash }))
         }
         "pair" => {
-            let (scale_s, render_s, capture_s, cpu_s) =
+            let (scale_s, render_s, capture_s, cpu_s, hash) =
                 pool.install(|| frame_pair(setup, &renderer, args.width, args.height))?;
             LAST_CPU_S.with(|c| c.set(cpu_s));
             (
                 vec![render_s + capture_s],
                 0,
-                serde_json::json!({ "light_scale_s": scale_s, "render_s": render_s, "capture_s": capture_s }),
+                serde_json::json!({
+                    "light_scale_s": scale_s, "render_s": render_s, "capture_s": capture_s, "frame_fnv": hash,
+                }),
             )
         }
-        _ => return Err(format!("--case {case}: expected primary, shadow, direct or pair").into()),
+        "speckle" => {
+            let settings = RenderSettings { light_cull: args.cull, ..RenderSettings::preview() };
+            let preview = Renderer::new(&setup.scene, settings);
+            let (times, frame) = timed(|| pool.install(|| preview.render(&camera)));
+            let (speckle, zero_median) = speckle(&frame?, args.width, args.height);
+            (times, 0, serde_json::json!({ "cull": args.cull, "speckle": speckle, "zero_median_px": zero_median }))
+        }
+        _ => return Err(format!("--case {case}: expected primary, shadow, direct, pair or speckle").into()),
     };
     let b = best(&times);
     let mut out = serde_json::json!({
@@ -401,7 +460,7 @@ fn main() -> BoxResult<()> {
     }
     for threads in [1, 2] {
         let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build()?;
-        let (scale_s, render_s, capture_s, cpu_s) = pool.install(|| frame_pair(&setup, &renderer, 1280, 960))?;
+        let (scale_s, render_s, capture_s, cpu_s, _) = pool.install(|| frame_pair(&setup, &renderer, 1280, 960))?;
         println!(
             "day + night pair 1280x960, standard, {threads} thread(s): {:.2} s wall, {cpu_s:.2} s CPU \
              (render {render_s:.2} s + capture {capture_s:.3} s); light scaling once per scene {scale_s:.2} s",

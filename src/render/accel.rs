@@ -18,11 +18,12 @@
 
 use std::time::Duration;
 
-use glam::{Mat3, Vec2, Vec3, Vec3A};
+use glam::{Mat3, UVec2, Vec2, Vec3, Vec3A};
 use obvhs::BvhBuildParams;
 use obvhs::cwbvh::CwBvh;
 use obvhs::cwbvh::builder::build_cwbvh_from_tris;
-use obvhs::ray::{Ray, RayHit};
+use obvhs::cwbvh::node::CwBvhNode;
+use obvhs::ray::Ray;
 use obvhs::triangle::Triangle;
 
 use crate::scene::Scene;
@@ -103,7 +104,8 @@ impl ShearedRay {
     }
 
     /// Intersects the triangle `tri` (both sides); returns `(t, b1, b2)` for `tmin < t < tmax`.
-    #[inline]
+    /// Always inlined: it runs inside the traversal loop for every candidate triangle.
+    #[inline(always)]
     #[must_use]
     pub fn intersect(&self, tri: &[Vec3A; 3], tmin: f32, tmax: f32) -> Option<(f32, f32, f32)> {
         let [kx, ky, kz] = self.k;
@@ -267,21 +269,24 @@ impl Accel {
         let bvh = self.bvh.as_ref()?;
         let direction = positive_zeros(direction);
         let sheared = ShearedRay::new(origin, direction);
-        let ray = Ray::new(origin.into(), direction.into(), 0.0, tmax);
-        let mut hit = RayHit::none();
-        let mut bary = (0.0, 0.0);
+        let mut ray = Ray::new(origin.into(), direction.into(), 0.0, tmax);
+        let mut best: Option<Hit> = None;
         let tris = &self.tris;
-        bvh.ray_traverse(ray, &mut hit, |r, id| match sheared.intersect(&tris[id], r.tmin, r.tmax) {
-            Some((t, b1, b2)) => {
-                bary = (b1, b2);
-                t
+        let mut state = bvh.new_traversal(ray.direction);
+        let mut node: &CwBvhNode;
+        obvhs::traverse!(bvh, node, state, node.intersect_ray(&ray, state.oct_inv4), {
+            let id = state.primitive_id;
+            if let Some((t, b1, b2)) = sheared.intersect(&tris[id as usize], ray.tmin, ray.tmax) {
+                // `intersect` only returns t < tmax, so this hit is the closest so far.
+                best = Some(Hit { t, triangle: id, b1, b2 });
+                ray.tmax = t;
             }
-            None => f32::INFINITY,
         });
-        (hit.t < tmax).then_some(Hit { t: hit.t, triangle: hit.primitive_id, b1: bary.0, b2: bary.1 })
+        best
     }
 
     /// Whether anything lies on `origin + t * direction` for `0 < t < tmax` (a shadow ray).
+    /// Any hit ends the traversal at once.
     #[must_use]
     pub fn occluded(&self, origin: Vec3, direction: Vec3, tmax: f32) -> bool {
         let Some(bvh) = self.bvh.as_ref() else { return false };
@@ -289,9 +294,18 @@ impl Accel {
         let sheared = ShearedRay::new(origin, direction);
         let ray = Ray::new(origin.into(), direction.into(), 0.0, tmax);
         let tris = &self.tris;
-        !bvh.ray_traverse_miss(ray, |r, id| {
-            sheared.intersect(&tris[id], r.tmin, r.tmax).map_or(f32::INFINITY, |(t, _, _)| t)
-        })
+        let mut state = bvh.new_traversal(ray.direction);
+        let mut node: &CwBvhNode;
+        let mut blocked = false;
+        'traversal: {
+            obvhs::traverse!(bvh, node, state, node.intersect_ray(&ray, state.oct_inv4), {
+                if sheared.intersect(&tris[state.primitive_id as usize], ray.tmin, ray.tmax).is_some() {
+                    blocked = true;
+                    break 'traversal;
+                }
+            });
+        }
+        blocked
     }
 
     /// Interpolated surface at `hit` of a ray travelling along `direction`.

@@ -67,6 +67,8 @@ pub(crate) struct RectLight {
     /// Luminance, nit.
     pub luminous: f32,
     pub group: usize,
+    /// The four corners `center + u * s + v * r`, `s, r` in {-0.5, 0.5}, for the importance test.
+    pub corners: [Vec3; 4],
 }
 
 impl RectLight {
@@ -137,6 +139,7 @@ impl LightSet {
                     let area_m2 = cross.length();
                     let normal = light.direction.unwrap_or(cross).normalize_or_zero();
                     if area_m2 > 0.0 && normal != Vec3::ZERO && center.is_finite() {
+                        let corners = RECT_CORNERS.map(|(s, r)| center + u * s + v * r);
                         set.rects.push(RectLight {
                             center,
                             u,
@@ -146,6 +149,7 @@ impl LightSet {
                             rgb_nit: rgb,
                             luminous: intensity,
                             group,
+                            corners,
                         });
                         set.reference_nit[group] = set.reference_nit[group].max(intensity);
                     }
@@ -178,22 +182,32 @@ impl LightSet {
         cull: f32,
         sampler: &mut Sampler,
     ) -> GroupRgb {
+        // Each light's importance, computed once: it is needed for the group totals and again
+        // for the roulette. The first `IMPORTANCE_CACHE` lights keep theirs on the stack (no
+        // allocation per shading point); any further light is recomputed, to the same value.
+        let mut cached = [0.0f32; IMPORTANCE_CACHE];
         let mut total = [0.0f32; 2];
-        for light in &self.points {
-            total[light.group] += point_importance(light, point, ng, ns);
+        let importances = self
+            .points
+            .iter()
+            .map(|l| (l.group, point_importance(l, point, ng, ns)))
+            .chain(self.directionals.iter().map(|l| (l.group, directional_importance(l, ng, ns))))
+            .chain(self.rects.iter().map(|l| (l.group, rect_importance(l, point, ns))));
+        for (i, (group, b)) in importances.enumerate() {
+            total[group] += b;
+            if let Some(slot) = cached.get_mut(i) {
+                *slot = b;
+            }
         }
-        for light in &self.directionals {
-            total[light.group] += directional_importance(light, ng, ns);
-        }
-        for light in &self.rects {
-            total[light.group] += rect_importance(light, point, ns);
-        }
+        let importance = |i: usize, recompute: &dyn Fn() -> f32| cached.get(i).copied().unwrap_or_else(recompute);
         let keep = |b: f32, group: usize, sampler: &mut Sampler| roulette(b, total[group], cull, sampler);
+        let (n_points, n_dirs) = (self.points.len(), self.directionals.len());
         let mut e = [Vec3::ZERO; 2];
         let eps = ray_epsilon(point);
         let origin = point + ng * eps;
-        for light in &self.points {
-            let Some(weight) = keep(point_importance(light, point, ng, ns), light.group, sampler) else { continue };
+        for (i, light) in self.points.iter().enumerate() {
+            let b = importance(i, &|| point_importance(light, point, ng, ns));
+            let Some(weight) = keep(b, light.group, sampler) else { continue };
             let d = light.position - point;
             let dist2 = d.length_squared();
             let dist = dist2.sqrt();
@@ -202,16 +216,18 @@ impl LightSet {
                 e[light.group] += light.rgb_cd * (weight * ns.dot(dir) / dist2);
             }
         }
-        for light in &self.directionals {
-            let Some(weight) = keep(directional_importance(light, ng, ns), light.group, sampler) else { continue };
+        for (i, light) in self.directionals.iter().enumerate() {
+            let b = importance(n_points + i, &|| directional_importance(light, ng, ns));
+            let Some(weight) = keep(b, light.group, sampler) else { continue };
             if !accel.occluded(origin, light.to_light, f32::INFINITY) {
                 e[light.group] += light.rgb_lux * (weight * ns.dot(light.to_light));
             }
         }
         let count = rect_samples.max(1);
         let inv_count = 1.0 / count as f32;
-        for light in &self.rects {
-            let Some(weight) = keep(rect_importance(light, point, ns), light.group, sampler) else { continue };
+        for (i, light) in self.rects.iter().enumerate() {
+            let b = importance(n_points + n_dirs + i, &|| rect_importance(light, point, ns));
+            let Some(weight) = keep(b, light.group, sampler) else { continue };
             let mut sum = Vec3::ZERO;
             for m in 0..count {
                 let (a, b) = rect_strata.point(m, sampler);
@@ -250,6 +266,12 @@ impl LightSet {
         best
     }
 }
+
+/// Lights whose importance [`LightSet::direct`] keeps on the stack; a house has a few dozen.
+const IMPORTANCE_CACHE: usize = 64;
+
+/// The corners of a rect light in its own `(u, v)` coordinates.
+const RECT_CORNERS: [(f32, f32); 4] = [(-0.5, -0.5), (0.5, -0.5), (0.5, 0.5), (-0.5, 0.5)];
 
 /// Russian roulette for a light of importance `b` in a group of total `total`: `Some(weight)`
 /// when it is to be traced.
@@ -293,8 +315,7 @@ fn rect_importance(light: &RectLight, point: Vec3, ns: Vec3) -> f32 {
     if to_point.dot(light.normal) <= 0.0 {
         return 0.0;
     }
-    let corners = [(-0.5, -0.5), (0.5, -0.5), (0.5, 0.5), (-0.5, 0.5)];
-    if corners.iter().all(|&(s, r)| ns.dot(light.center + light.u * s + light.v * r - point) <= 0.0) {
+    if light.corners.iter().all(|&c| ns.dot(c - point) <= 0.0) {
         return 0.0;
     }
     let dist2 = to_point.length_squared().max(1e-12);

@@ -321,8 +321,9 @@ impl<'a> Renderer<'a> {
     pub fn render(&self, camera: &Camera) -> Result<Frame, RenderError> {
         camera.validate()?;
         let (w, h) = (camera.width_px, camera.height_px);
+        let basis = camera.basis();
         let rows: Vec<Vec<PixelOut>> =
-            (0..h).into_par_iter().map(|y| (0..w).map(|x| self.render_pixel(camera, x, y)).collect()).collect();
+            (0..h).into_par_iter().map(|y| (0..w).map(|x| self.render_pixel(camera, basis, x, y)).collect()).collect();
         let n = w as usize * h as usize;
         let mut frame = Frame {
             width: w,
@@ -347,10 +348,9 @@ impl<'a> Renderer<'a> {
 
     /// One pixel: labels from the ray through its centre, radiance averaged over `n x n`
     /// stratified jittered rays.
-    fn render_pixel(&self, camera: &Camera, x: u32, y: u32) -> PixelOut {
+    fn render_pixel(&self, camera: &Camera, basis: (Vec3, Vec3, Vec3), x: u32, y: u32) -> PixelOut {
         let tracer = self.tracer();
         let origin = camera.position;
-        let basis = camera.basis();
         let forward = basis.0;
         let mut out = PixelOut { depth_m: f32::INFINITY, ..PixelOut::default() };
         let centre = camera.ray_direction_in(basis, x as f32 + 0.5, y as f32 + 0.5);
