@@ -627,7 +627,9 @@ fn compute(
                 let pose = walk.poses[i];
                 let camera = resolved.camera_at(&pose);
                 let t0 = Instant::now();
-                let frame: Frame = renderer.render(&camera)?;
+                // Threshold-window poses need only what is visible: one label ray per pixel.
+                let frame: Frame =
+                    if role == 0 { renderer.render_labels(&camera)? } else { renderer.render(&camera)? };
                 let mut times = [secs(t0), 0.0, 0.0];
                 let mut counts: BTreeMap<u32, u32> = BTreeMap::new();
                 for &id in &frame.instance_id {

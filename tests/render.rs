@@ -515,6 +515,14 @@ fn generated_scenes_render_and_scale() {
     let frame = renderer.render(&cam).unwrap();
     assert_no_nan(&frame);
     assert!(frame.depth_m.iter().any(|d| d.is_finite()), "the floor is in view");
+    // The label-only pass sees exactly what the full render labels, and shades nothing.
+    let labels = renderer.render_labels(&cam).unwrap();
+    assert_eq!(labels.instance_id, frame.instance_id);
+    assert_eq!(labels.class_id, frame.class_id);
+    assert_eq!(labels.depth_m, frame.depth_m);
+    assert_eq!(labels.normal, frame.normal);
+    assert!(frame.day_nit.iter().any(|c| c.iter().any(|&v| v > 0.0)), "the full render is lit");
+    assert!(labels.day_nit.iter().chain(&labels.night_nit).all(|c| *c == [0.0; 3]));
     let scale = LightScale::to_targets(&renderer, 20.0, 2.0, 0.75).unwrap();
     assert!(scale.day.is_finite() && scale.night.is_finite());
 }

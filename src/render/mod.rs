@@ -319,11 +319,30 @@ impl<'a> Renderer<'a> {
     /// # Errors
     /// [`RenderError::BadCamera`] for a camera that fails [`Camera::validate`].
     pub fn render(&self, camera: &Camera) -> Result<Frame, RenderError> {
+        self.render_with(camera, |basis, x, y| self.render_pixel(camera, basis, x, y))
+    }
+
+    /// Depth, instance and class ids and normals of `camera`'s view, exactly as [`Renderer::render`]
+    /// gives them, without shading (the radiance buffers are black): one ray per pixel, for
+    /// callers that need only what is visible, e.g. threshold visibility in the evaluator.
+    ///
+    /// # Errors
+    /// [`RenderError::BadCamera`] for a camera that fails [`Camera::validate`].
+    pub fn render_labels(&self, camera: &Camera) -> Result<Frame, RenderError> {
+        self.render_with(camera, |basis, x, y| self.label_pixel(camera, basis, x, y))
+    }
+
+    /// Runs `pixel` over every pixel (rows in parallel) and gathers the frame in row order.
+    fn render_with(
+        &self,
+        camera: &Camera,
+        pixel: impl Fn((Vec3, Vec3, Vec3), u32, u32) -> PixelOut + Sync,
+    ) -> Result<Frame, RenderError> {
         camera.validate()?;
         let (w, h) = (camera.width_px, camera.height_px);
         let basis = camera.basis();
         let rows: Vec<Vec<PixelOut>> =
-            (0..h).into_par_iter().map(|y| (0..w).map(|x| self.render_pixel(camera, basis, x, y)).collect()).collect();
+            (0..h).into_par_iter().map(|y| (0..w).map(|x| pixel(basis, x, y)).collect()).collect();
         let n = w as usize * h as usize;
         let mut frame = Frame {
             width: w,
@@ -346,22 +365,28 @@ impl<'a> Renderer<'a> {
         Ok(frame)
     }
 
-    /// One pixel: labels from the ray through its centre, radiance averaged over `n x n`
-    /// stratified jittered rays.
-    fn render_pixel(&self, camera: &Camera, basis: (Vec3, Vec3, Vec3), x: u32, y: u32) -> PixelOut {
-        let tracer = self.tracer();
+    /// One pixel's labels (depth, ids, normal) from the ray through its centre; black radiance.
+    fn label_pixel(&self, camera: &Camera, basis: (Vec3, Vec3, Vec3), x: u32, y: u32) -> PixelOut {
         let origin = camera.position;
-        let forward = basis.0;
         let mut out = PixelOut { depth_m: f32::INFINITY, ..PixelOut::default() };
         let centre = camera.ray_direction_in(basis, x as f32 + 0.5, y as f32 + 0.5);
         if let Some(hit) = self.accel.closest_hit(origin, centre, f32::INFINITY) {
             let surface = self.accel.surface(&hit, origin, centre);
             let label = self.accel.label(surface.node);
-            out.depth_m = hit.t * centre.dot(forward);
+            out.depth_m = hit.t * centre.dot(basis.0);
             out.instance_id = label.instance_id;
             out.class_id = label.class_id;
             out.normal = surface.shading_normal;
         }
+        out
+    }
+
+    /// One pixel: labels from the ray through its centre, radiance averaged over `n x n`
+    /// stratified jittered rays.
+    fn render_pixel(&self, camera: &Camera, basis: (Vec3, Vec3, Vec3), x: u32, y: u32) -> PixelOut {
+        let tracer = self.tracer();
+        let origin = camera.position;
+        let mut out = self.label_pixel(camera, basis, x, y);
         let key = u64::from(y) * u64::from(camera.width_px) + u64::from(x);
         let mut sampler = Sampler::new(self.settings.seed, "render/pixel", key);
         let n = self.settings.samples_per_axis.max(1);
