@@ -7,7 +7,8 @@ use common::data_dir;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use scene_gen::gap::{self, GapOptions, testdata};
+use rand::Rng as _;
+use scene_gen::gap::{self, GapOptions, stats, testdata};
 use scene_gen::sensor::SensorModel;
 
 fn temp_dir(name: &str) -> PathBuf {
@@ -121,6 +122,10 @@ fn set003_names_its_documented_effects() {
     let options = GapOptions { max_stack_frames: Some(16), step_stride: 3, ..GapOptions::default() };
     let r = gap::run(&desc, None, &options).unwrap();
     let named = r.named();
+    println!(
+        "set 003 crop: named {named:?}, gap {:.2} -> {:.2}, {} simulations ({} cached)",
+        r.gap_initial.gap, r.gap_final.gap, r.simulations, r.cached_evaluations
+    );
     for must in ["black_level", "nonlinearity", "dsnu", "periodic_pattern", "prnu"] {
         assert!(named.iter().any(|n| n == must), "{must} not named: {named:?}");
     }
@@ -157,7 +162,7 @@ fn cli_writes_reports_and_prints_json() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("stdout is one JSON document");
     let keys: Vec<&String> = v.as_object().unwrap().keys().collect();
-    assert_eq!(keys, ["gap_final", "gap_initial", "named", "steps"]);
+    assert_eq!(keys, ["gap_final", "gap_initial", "named", "simulations", "steps"]);
     assert_eq!(v["named"], serde_json::json!(case.hidden));
     let step = &v["steps"][0];
     for k in ["effect", "params", "gap_before", "gap_after", "evidence"] {
@@ -388,4 +393,87 @@ fn cli_takes_several_descriptors() {
     assert_eq!(sorted(v["named"].as_array().unwrap().iter().map(|n| n.as_str().unwrap().to_string())), case.hidden);
     let model = SensorModel::from_toml(&std::fs::read_to_string(out.join("model.toml")).unwrap()).unwrap();
     assert!(model.effects.read_noise_split.enabled);
+}
+
+/// The direct 2-D DFT the FFT replaced (`stats::peaks_2d` before: along x per row, then along y
+/// per frequency, with twiddle tables), kept as the reference.
+fn direct_periodogram(img: &[f64], w: usize, h: usize, over: usize) -> Vec<f64> {
+    let m = img.iter().sum::<f64>() / img.len() as f64;
+    let nfx = over * w / 2 + 1;
+    let nfy = over * h;
+    let fx: Vec<f64> = (0..nfx).map(|k| k as f64 / (over * w) as f64).collect();
+    let fy: Vec<f64> = (0..nfy).map(|k| k as f64 / (over * h) as f64 - 0.5).collect();
+    let tw = std::f64::consts::TAU;
+    let tx: Vec<(f64, f64)> =
+        fx.iter().flat_map(|f| (0..w).map(move |c| ((tw * f * c as f64).cos(), -(tw * f * c as f64).sin()))).collect();
+    let ty: Vec<(f64, f64)> =
+        fy.iter().flat_map(|g| (0..h).map(move |r| ((tw * g * r as f64).cos(), -(tw * g * r as f64).sin()))).collect();
+    let mut xr = vec![(0.0f64, 0.0f64); nfx * h];
+    for r in 0..h {
+        let row: Vec<f64> = img[r * w..(r + 1) * w].iter().map(|v| v - m).collect();
+        for k in 0..nfx {
+            let t = &tx[k * w..(k + 1) * w];
+            let (mut re, mut im) = (0.0, 0.0);
+            for (v, (c, s)) in row.iter().zip(t) {
+                re += v * c;
+                im += v * s;
+            }
+            xr[k * h + r] = (re, im);
+        }
+    }
+    let n2 = ((w * h) as f64).powi(2);
+    let mut p = vec![0f64; nfx * nfy];
+    for k in 0..nfx {
+        let col = &xr[k * h..(k + 1) * h];
+        for j in 0..nfy {
+            let t = &ty[j * h..(j + 1) * h];
+            let (mut re, mut im) = (0.0, 0.0);
+            for ((a, b), (c, s)) in col.iter().zip(t) {
+                re += a * c - b * s;
+                im += a * s + b * c;
+            }
+            p[k * nfy + j] = 4.0 * (re * re + im * im) / n2;
+        }
+    }
+    p
+}
+
+/// The FFT periodogram equals the direct 2-D DFT it replaced, to rounding.
+#[test]
+fn fft_periodogram_equals_the_direct_sum() {
+    let mut rng = scene_gen::rng::stream(7, "test/periodogram");
+    // Odd and even sizes, oversampling 1..3 (odd `over h`: the -0.5 shift is not a bin).
+    for (w, h, over) in [(24, 18, 2), (17, 13, 2), (20, 15, 3), (9, 11, 1)] {
+        let img: Vec<f64> = (0..w * h)
+            .map(|i| {
+                let (x, y) = ((i % w) as f64, (i / w) as f64);
+                10.0 + rng.random::<f64>() + 0.7 * (std::f64::consts::TAU * (0.13 * x + 0.31 * y)).cos()
+            })
+            .collect();
+        let (fx, fy, p) = stats::periodogram_2d(&img, w, h, over);
+        let q = direct_periodogram(&img, w, h, over);
+        assert_eq!((fx.len(), fy.len()), (over * w / 2 + 1, over * h));
+        assert_eq!(p.len(), q.len());
+        let scale = q.iter().copied().fold(0.0, f64::max);
+        assert!(scale > 0.05, "the wave stands out: {scale}");
+        for (i, (a, b)) in p.iter().zip(&q).enumerate() {
+            assert!((a - b).abs() <= 1e-12 * scale, "{w}x{h} over {over}: bin {i}: fft {a} direct {b}");
+        }
+    }
+}
+
+/// The largest periodogram peak of a plane wave is at its frequency, with power A^2.
+#[test]
+fn peaks_find_a_plane_wave() {
+    let (w, h) = (64, 48);
+    let img: Vec<f64> = (0..w * h)
+        .map(|i| {
+            let (x, y) = ((i % w) as f64, (i / w) as f64);
+            (std::f64::consts::TAU * (0.125 * x - 0.25 * y)).cos()
+        })
+        .collect();
+    let (found, _) = stats::peaks_2d(&img, w, h, 2, 2);
+    let (p, fx, fy) = found[0];
+    assert!((fx - 0.125).abs() < 1e-9 && (fy + 0.25).abs() < 1e-9, "{fx} {fy}");
+    assert!((p - 1.0).abs() < 1e-9, "A^2 of a unit wave: {p}");
 }

@@ -33,6 +33,10 @@ pub struct GapArgs {
     /// Seed of the simulated acquisitions.
     #[arg(long, default_value_t = 1288)]
     pub seed: u64,
+    /// Simulate every candidate in full instead of screening them on the top quarter of the
+    /// rows first (frames of 240 rows or more; see `scene_gen::gap::GapOptions::screen`).
+    #[arg(long)]
+    pub no_screen: bool,
 }
 
 pub fn run(args: &GapArgs) -> Result<(), CliError> {
@@ -50,6 +54,7 @@ pub fn run(args: &GapArgs) -> Result<(), CliError> {
     let options = GapOptions {
         seed: args.seed,
         max_stack_frames: (args.stack_frames > 0).then_some(args.stack_frames),
+        screen: !args.no_screen,
         ..GapOptions::default()
     };
     let result = gap::run_inputs(&args.measured, model, &options).map_err(bad_input)?;

@@ -13,7 +13,7 @@
 use serde_json::json;
 
 use super::stats::{self, Gap, Stats, Thresholds};
-use super::{Acquisition, GapModel, GapOptions, GapResult, Light, Step, Trial, simulate_acquisition};
+use super::{Acquisition, GapModel, GapOptions, GapResult, Light, Step, Trial, simulate_acquisition, simulate_rows};
 
 /// Effects the workflow can add, in the order they are tried (ties go to the earlier one).
 pub const CANDIDATES: [&str; 11] = [
@@ -369,17 +369,46 @@ struct Evaluator {
     seed: u64,
     /// Index of the first dark pair (for the read-noise refit).
     dark_pair: usize,
+    /// The last models evaluated, with the group gains they were simulated at, and their
+    /// results: the search re-evaluates unchanged models (the start model after a gain refit
+    /// that changed nothing, a polish proposal equal to the current model), and a simulation is
+    /// deterministic, so a repeat is a lookup.
+    cache: std::cell::RefCell<Vec<EvalEntry>>,
+    /// Full simulations run and evaluations answered from the cache.
+    counts: std::cell::Cell<(usize, usize)>,
 }
+
+/// A cached evaluation: model, group gains (dB), statistics and gap.
+type EvalEntry = (GapModel, Vec<f64>, Stats, Gap);
+
+/// Evaluations kept in [`Evaluator::cache`] (most recent first).
+const EVAL_CACHE: usize = 8;
 
 impl Evaluator {
     fn eval(&self, model: &GapModel) -> (Stats, Gap) {
+        let hit = self
+            .cache
+            .borrow()
+            .iter()
+            .find(|(m, g, _, _)| m == model && *g == self.layout.gains_db)
+            .map(|(_, _, s, g)| (s.clone(), g.clone()));
+        let (sims, hits) = self.counts.get();
+        if let Some(r) = hit {
+            self.counts.set((sims, hits + 1));
+            return r;
+        }
+        self.counts.set((sims + 1, hits));
         let sim = simulate_acquisition(model, &self.layout, self.seed, None);
         let mut s = stats::compute(&sim, &self.t);
+        drop(sim);
         if self.reduced {
             s = s.reduced();
         }
         s.thresholds = Some(self.t);
         let g = stats::gap(&self.m, &s);
+        let mut cache = self.cache.borrow_mut();
+        cache.insert(0, (model.clone(), self.layout.gains_db.clone(), s.clone(), g.clone()));
+        cache.truncate(EVAL_CACHE);
         (s, g)
     }
 
@@ -504,6 +533,49 @@ impl Evaluator {
     }
 }
 
+/// Frames of at least this many rows have their candidates screened (see [`Screen`]). Below it
+/// (the hidden-effect sets, the 160x120 crop of set 003) every candidate is simulated in full.
+pub const SCREEN_MIN_ROWS: usize = 240;
+
+/// Candidates per round simulated in full after screening: the largest screened drops.
+pub const SCREEN_KEEP: usize = 3;
+
+/// Screening: the chi-square of a model on the top `1 / 4` of the sensor's rows, against the
+/// measured statistics of the same rows. The window is bit for bit the full simulation's top rows
+/// ([`simulate_rows`]), a quarter of its cost; the search ranks a round's candidates by their
+/// screened drop and simulates only the [`SCREEN_KEEP`] best in full, so acceptance is always
+/// decided on the full acquisition.
+struct Screen {
+    rows: usize,
+    m: Stats,
+    cache: std::cell::RefCell<Vec<(GapModel, Vec<f64>, f64)>>,
+}
+
+impl Screen {
+    fn new(measured: &Acquisition, t: &Thresholds) -> Screen {
+        let rows = measured.height / 4;
+        let crop = measured.top_rows(rows);
+        let mut m = stats::compute(&crop, t);
+        m.thresholds = Some(*t);
+        Screen { rows, m, cache: Default::default() }
+    }
+
+    /// Total chi-square of `model` on the window.
+    fn chi2(&self, ev: &Evaluator, model: &GapModel) -> f64 {
+        if let Some((_, _, c)) = self.cache.borrow().iter().find(|(m, g, _)| m == model && *g == ev.layout.gains_db) {
+            return *c;
+        }
+        let sim = simulate_rows(model, &ev.layout, ev.seed, None, self.rows);
+        let mut s = stats::compute(&sim, &ev.t);
+        s.thresholds = Some(ev.t);
+        let c = stats::gap(&self.m, &s).chi2_total;
+        let mut cache = self.cache.borrow_mut();
+        cache.insert(0, (model.clone(), ev.layout.gains_db.clone(), c));
+        cache.truncate(2);
+        c
+    }
+}
+
 /// Candidates a photon-transfer CSV can show (no images: no spatial effects).
 pub const REDUCED_CANDIDATES: [&str; 5] =
     ["black_level", "dark_current", "read_noise_split", "saturation", "nonlinearity"];
@@ -527,9 +599,23 @@ pub fn search(
         .iter()
         .position(|b| b.group == 0 && b.frames.len() == 2 && b.light == Light::Dark)
         .unwrap_or_default();
+    let screen = (options.screen
+        && !reduced
+        && layout.height >= SCREEN_MIN_ROWS
+        && layout.blocks.iter().all(|b| b.frames.iter().all(|f| f.len() == layout.width * layout.height)))
+    .then(|| Screen::new(layout, &t));
     let mut layout = layout.clone();
     layout.blocks.iter_mut().for_each(|b| b.frames = vec![Vec::new(); b.frames.len()]);
-    let mut ev = Evaluator { layout, reduced, t, m, seed: options.seed, dark_pair };
+    let mut ev = Evaluator {
+        layout,
+        reduced,
+        t,
+        m,
+        seed: options.seed,
+        dark_pair,
+        cache: Default::default(),
+        counts: Default::default(),
+    };
     let mut model = start;
     if refine {
         let (s, _) = ev.eval(&model);
@@ -549,7 +635,8 @@ pub fn search(
     let ln_n = (g.n.max(2) as f64).ln();
     for round in 1..=CANDIDATES.len() {
         let named = model.named();
-        let mut best: Option<(f64, &str, GapModel, Stats, Gap)> = None;
+        let first_trial = trials.len();
+        let mut proposals: Vec<(&str, GapModel)> = Vec::new();
         for &effect in &CANDIDATES {
             if named.contains(&effect) || (ev.reduced && !REDUCED_CANDIDATES.contains(&effect)) {
                 continue;
@@ -558,14 +645,52 @@ pub fn search(
             if refine {
                 ev.refit_read_noise(&mut trial);
             }
+            proposals.push((effect, trial));
+        }
+        // Screening: rank by the drop on the window, keep the best SCREEN_KEEP (ties: the
+        // earlier candidate) for the full simulation; the others' trials report the window.
+        let mut full = vec![true; proposals.len()];
+        if let Some(sc) = screen.as_ref().filter(|_| proposals.len() > SCREEN_KEEP) {
+            let base = sc.chi2(&ev, &model);
+            let drops: Vec<f64> = proposals.iter().map(|(_, t)| base - sc.chi2(&ev, t)).collect();
+            let mut order: Vec<usize> = (0..proposals.len()).collect();
+            order.sort_by(|&a, &b| drops[b].total_cmp(&drops[a]).then(a.cmp(&b)));
+            for &i in &order[SCREEN_KEEP..] {
+                full[i] = false;
+                let (effect, _) = &proposals[i];
+                let penalty = PENALTY_FACTOR * param_count(effect) as f64 * ln_n;
+                trials.push(Trial {
+                    round,
+                    effect: (*effect).to_string(),
+                    chi2_drop: drops[i],
+                    penalty,
+                    gap_after: f64::NAN,
+                    screened: true,
+                });
+            }
+        }
+        let mut best: Option<(f64, &str, GapModel, Stats, Gap)> = None;
+        for ((effect, trial), full) in proposals.into_iter().zip(full) {
+            if !full {
+                continue;
+            }
             let (ts, tg) = ev.eval(&trial);
             let drop = g.chi2_total - tg.chi2_total;
             let penalty = PENALTY_FACTOR * param_count(effect) as f64 * ln_n;
-            trials.push(Trial { round, effect: effect.to_string(), chi2_drop: drop, penalty, gap_after: tg.gap });
+            trials.push(Trial {
+                round,
+                effect: effect.to_string(),
+                chi2_drop: drop,
+                penalty,
+                gap_after: tg.gap,
+                screened: false,
+            });
             if drop > penalty && best.as_ref().is_none_or(|b| drop > b.0) {
                 best = Some((drop, effect, trial, ts, tg));
             }
         }
+        let rank = |t: &Trial| CANDIDATES.iter().position(|c| *c == t.effect);
+        trials[first_trial..].sort_by_key(rank);
         let Some((drop, effect, trial, ts, tg)) = best else { break };
         let gap_before = g.gap;
         let improved: Vec<String> = g
@@ -628,6 +753,7 @@ pub fn search(
         });
     }
     let gains_db = ev.layout.gains_db.clone();
+    let (simulations, cached_evaluations) = ev.counts.get();
     GapResult {
         initial,
         final_model: model,
@@ -639,5 +765,7 @@ pub fn search(
         steps,
         trials,
         gains_db,
+        simulations,
+        cached_evaluations,
     }
 }

@@ -35,6 +35,15 @@
 //! written by the generator with set 003's camera (100 hot pixels) it is named, with the other
 //! five (docs/BENCHMARKS.md).
 //!
+//! Cost: nearly all of a run is simulating the acquisition (about 87 % of one evaluation at
+//! 640x480: every pixel of every frame draws Poisson and Gaussian noise), about 150 times. The
+//! statistics use FFTs ([`stats::periodogram_2d`]) and separable wave tables, the search keeps
+//! its last evaluations ([`fit`]: an unchanged model is not simulated again), and on frames of
+//! 240 rows or more the candidates of a round are screened on the top quarter of the rows
+//! (bit for bit the full simulation's rows, [`simulate_rows`]) and only the best
+//! [`fit::SCREEN_KEEP`] simulated in full ([`GapOptions::screen`]); docs/BENCHMARKS.md has the
+//! figures.
+//!
 //! Inputs ([`run_inputs`]): one descriptor; several descriptors of one camera at different gains
 //! (gain groups; the gains are measured from the response, [`load_acquisitions`]), where
 //! `read_noise_split` becomes a candidate; or one photon-transfer CSV ([`csv`]: photon transfer,
@@ -88,11 +97,15 @@ pub struct GapOptions {
     pub max_stack_frames: Option<usize>,
     /// Use every n-th photon-transfer step (1: all).
     pub step_stride: usize,
+    /// Screen the candidates of a round on the top quarter of the sensor's rows and simulate
+    /// the whole acquisition only for the most promising ones ([`fit::SCREEN_KEEP`]); only on
+    /// frames of at least [`fit::SCREEN_MIN_ROWS`] rows. False: every candidate in full.
+    pub screen: bool,
 }
 
 impl Default for GapOptions {
     fn default() -> Self {
-        GapOptions { seed: 1288, max_stack_frames: Some(32), step_stride: 1 }
+        GapOptions { seed: 1288, max_stack_frames: Some(32), step_stride: 1, screen: true }
     }
 }
 
@@ -216,12 +229,31 @@ fn frame_seed(seed: u64, block: usize, frame: usize) -> u64 {
 /// empty. Block `i`, frame `j` always draws from the same seed, whatever else is simulated.
 #[must_use]
 pub fn simulate_acquisition(model: &GapModel, layout: &Acquisition, seed: u64, which: Option<&[usize]>) -> Acquisition {
-    let (w, h) = (layout.width, layout.height);
+    simulate_rows(model, layout, seed, which, layout.height)
+}
+
+/// [`simulate_acquisition`] cut to the first `rows` rows of the sensor: every fixed-pattern map
+/// and every frame's temporal noise is drawn row by row from its own substream, and the
+/// fall-off map is the full sensor's, so these rows are bit for bit the full simulation's.
+#[must_use]
+pub fn simulate_rows(
+    model: &GapModel,
+    layout: &Acquisition,
+    seed: u64,
+    which: Option<&[usize]>,
+    rows: usize,
+) -> Acquisition {
+    let (w, full_h) = (layout.width, layout.height);
+    let h = rows.min(full_h);
     let mut sensor = model.sensor.clone();
     sensor.adc_bits = layout.bits;
     let pattern = sensor.fixed_pattern(w, h);
     let falloff = model.optics.illumination_falloff;
-    let r2 = falloff.enabled.then(|| radius2_map(w, h));
+    let r2 = falloff.enabled.then(|| {
+        let mut r2 = radius2_map(w, full_h);
+        r2.truncate(w * h);
+        r2
+    });
     let photon_map = |p: f64| -> Vec<f32> {
         match &r2 {
             Some(r2) => r2.iter().map(|r| (p * (1.0 - falloff.corner_loss_fraction * r)).max(0.0) as f32).collect(),
@@ -252,6 +284,25 @@ pub fn simulate_acquisition(model: &GapModel, layout: &Acquisition, seed: u64, w
         })
         .collect();
     Acquisition { width: w, height: h, bits: layout.bits, blocks, gains_db: layout.gains_db.clone() }
+}
+
+impl Acquisition {
+    /// The first `rows` rows of every frame (the sensor window [`simulate_rows`] simulates).
+    #[must_use]
+    pub fn top_rows(&self, rows: usize) -> Acquisition {
+        let h = rows.min(self.height);
+        let blocks = self
+            .blocks
+            .iter()
+            .map(|b| Block {
+                light: b.light,
+                exposure_s: b.exposure_s,
+                group: b.group,
+                frames: b.frames.iter().map(|f| f[..(self.width * h).min(f.len())].to_vec()).collect(),
+            })
+            .collect();
+        Acquisition { width: self.width, height: h, bits: self.bits, blocks, gains_db: self.gains_db.clone() }
+    }
 }
 
 /// The start model: the EMVA 1288 linear model of the calibration (K, QE, read noise), every
@@ -287,6 +338,9 @@ pub struct Trial {
     pub chi2_drop: f64,
     pub penalty: f64,
     pub gap_after: f64,
+    /// True: only screened on the top rows of the sensor (see [`GapOptions::screen`]); the drop
+    /// is then the chi-square drop on that window, and `gap_after` is NaN (not simulated).
+    pub screened: bool,
 }
 
 /// The result of the workflow.
@@ -303,6 +357,11 @@ pub struct GapResult {
     pub trials: Vec<Trial>,
     /// Gain of each input group as finally fitted, dB (group 0 the reference).
     pub gains_db: Vec<f64>,
+    /// Whole-acquisition simulations the search ran (the read-noise refit's dark-pair
+    /// simulations and the screening windows not counted).
+    pub simulations: usize,
+    /// Evaluations answered from the search's cache of recent models instead of simulated.
+    pub cached_evaluations: usize,
 }
 
 impl GapResult {

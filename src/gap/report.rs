@@ -45,6 +45,7 @@ pub fn summary_json(result: &GapResult) -> serde_json::Value {
         "gap_final": result.gap_final.gap,
         "steps": result.steps,
         "named": result.named(),
+        "simulations": result.simulations,
     })
 }
 
@@ -77,6 +78,8 @@ fn full_json(result: &GapResult, source: &str) -> serde_json::Value {
         "steps": result.steps,
         "named": result.named(),
         "trials": result.trials,
+        "simulations": result.simulations,
+        "cached_evaluations": result.cached_evaluations,
         "start_model": result.initial.sensor,
         "final_model": result.final_model.sensor,
         "final_optics": result.final_model.optics,
@@ -127,8 +130,15 @@ fn markdown(r: &GapResult, source: &str) -> String {
         "\n## Candidates tried\n\n| round | effect | chi-square drop | BIC penalty | gap after |\n|---|---|---|---|---|"
     );
     for t in &r.trials {
-        let _ =
-            writeln!(s, "| {} | {} | {:.1} | {:.1} | {:.3} |", t.round, t.effect, t.chi2_drop, t.penalty, t.gap_after);
+        let _ = if t.screened {
+            writeln!(
+                s,
+                "| {} | {} | {:.1} (top-rows screen) | {:.1} | not simulated |",
+                t.round, t.effect, t.chi2_drop, t.penalty
+            )
+        } else {
+            writeln!(s, "| {} | {} | {:.1} | {:.1} | {:.3} |", t.round, t.effect, t.chi2_drop, t.penalty, t.gap_after)
+        };
     }
     let gains: Vec<String> = r.gains_db.iter().map(|g| format!("{g:.2} dB")).collect();
     let _ = writeln!(

@@ -1,0 +1,58 @@
+//! Timing breakdown of one evaluation of the gap workflow on an EMVA 1288 descriptor: loading,
+//! thresholds, statistics, the FFT periodogram, the wave removal and whole-acquisition
+//! simulations (docs/BENCHMARKS.md, gap section):
+//!
+//! ```text
+//! cargo run --release --example gap_profile -- DESCRIPTOR
+//! ```
+use std::time::Instant;
+
+use scene_gen::gap::{self, GapOptions, simulate_acquisition, stats};
+
+fn main() {
+    let Some(desc) = std::env::args().nth(1).map(std::path::PathBuf::from) else {
+        eprintln!("usage: gap_profile DESCRIPTOR");
+        std::process::exit(2);
+    };
+    let options = GapOptions::default();
+    let t0 = Instant::now();
+    let measured = gap::load_acquisition(&desc, &options).unwrap();
+    println!("load {:.3}s", t0.elapsed().as_secs_f64());
+    let model = gap::start_model(&desc, measured.bits, 1288).unwrap();
+    let (w, h) = (measured.width, measured.height);
+    let t0 = Instant::now();
+    let t = stats::thresholds(&measured);
+    println!("thresholds {:.3}s", t0.elapsed().as_secs_f64());
+    let t0 = Instant::now();
+    let _m = stats::compute(&measured, &t);
+    println!("compute(measured) {:.3}s", t0.elapsed().as_secs_f64());
+    let t0 = Instant::now();
+    let sim = simulate_acquisition(&model, &measured, 1288, None);
+    println!("simulate (start model) {:.3}s", t0.elapsed().as_secs_f64());
+    let t0 = Instant::now();
+    let _s = stats::compute(&sim, &t);
+    println!("compute(sim) {:.3}s", t0.elapsed().as_secs_f64());
+    let dark = measured.blocks.iter().find(|b| b.frames.len() > 2 && b.light == gap::Light::Dark).unwrap();
+    let img = stats::average(&dark.frames);
+    let t0 = Instant::now();
+    let (pk, _) = stats::peaks_2d(&img, w, h, 2, 2);
+    println!("peaks_2d {:.3}s {pk:?}", t0.elapsed().as_secs_f64());
+    let t0 = Instant::now();
+    let _ = stats::remove_waves(&img, w, h, &[(pk[0].1, pk[0].2), (pk[1].1, pk[1].2)]);
+    println!("remove_waves (2 waves) {:.3}s", t0.elapsed().as_secs_f64());
+    let mut full = model.clone();
+    let e = &mut full.sensor.effects;
+    e.dsnu.enabled = true;
+    e.dsnu.std_e = 15.0;
+    e.prnu.enabled = true;
+    e.prnu.std_fraction = 0.005;
+    e.periodic_pattern.enabled = true;
+    e.periodic_pattern.amplitude_dn = 1.5;
+    e.periodic_pattern.freq_x_cycles_per_px = 0.04;
+    e.periodic_pattern.wave_x_freq_y_cycles_per_px = 0.2;
+    e.periodic_pattern.wave_y_freq_x_cycles_per_px = 0.1;
+    e.periodic_pattern.freq_y_cycles_per_px = 0.05;
+    let t0 = Instant::now();
+    let _ = simulate_acquisition(&full, &measured, 1288, None);
+    println!("simulate (dsnu, prnu, diagonal waves) {:.3}s", t0.elapsed().as_secs_f64());
+}
