@@ -112,9 +112,17 @@ pub fn run(program: &str, args: &[String], requests: &[PluginRequest]) -> Result
     // Write from a thread so a detector that answers before reading everything cannot block us.
     let writer = std::thread::spawn(move || stdin.write_all(input.as_bytes()));
     let out = child.wait_with_output().map_err(io)?;
-    writer.join().map_err(|_| io(std::io::Error::other("writer thread panicked")))?.map_err(io)?;
+    let written = writer.join().map_err(|_| io(std::io::Error::other("writer thread panicked")))?;
+    // The exit status first: a detector that fails before reading its input also breaks the
+    // pipe, and its failure, not the pipe, is what the user must hear about.
     if !out.status.success() {
         return Err(PluginError::Failed { program: program.to_string(), status: out.status });
+    }
+    // A detector may exit 0 without reading every request; the missing answers are then
+    // reported by name below, which says more than the broken pipe would.
+    match written {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => return Err(io(e)),
+        _ => {}
     }
     parse_responses(&String::from_utf8_lossy(&out.stdout), requests)
 }
