@@ -10,8 +10,48 @@ fn main() -> ExitCode {
     match cli::run(args) {
         Ok(()) => ExitCode::SUCCESS,
         Err(err) => {
-            eprintln!("error: {:#}", err.error);
+            eprintln!("error: {}", report(&err.error));
             ExitCode::from(err.status())
         }
+    }
+}
+
+/// The error and its causes joined by `: `, each cause left out when the text so far already
+/// says it: many library errors put their source in their own message (so they read well
+/// alone) and also expose it as `source()` (so callers can inspect it), and printing both
+/// would repeat it.
+fn report(error: &anyhow::Error) -> String {
+    let mut text = String::new();
+    for cause in error.chain() {
+        let part = cause.to_string();
+        if text.contains(&part) {
+            continue;
+        }
+        if !text.is_empty() {
+            text.push_str(": ");
+        }
+        text.push_str(&part);
+    }
+    text
+}
+
+#[cfg(test)]
+mod tests {
+    use super::report;
+
+    #[derive(Debug, thiserror::Error)]
+    #[error("cannot read a.toml: {source}")]
+    struct Embedding {
+        #[source]
+        source: std::io::Error,
+    }
+
+    #[test]
+    fn a_cause_already_in_the_message_is_said_once_and_a_new_one_is_kept() {
+        let io = || std::io::Error::new(std::io::ErrorKind::NotFound, "no such file");
+        let embedded = anyhow::Error::new(Embedding { source: io() });
+        assert_eq!(report(&embedded), "cannot read a.toml: no such file");
+        let wrapped = anyhow::Error::new(io()).context("loading the config");
+        assert_eq!(report(&wrapped), "loading the config: no such file");
     }
 }
