@@ -1,18 +1,11 @@
 //! The `scene-gen` command line as a user meets it: outputs, determinism, and bad input
 //! refused with a clear message, exit status 2 and nothing written.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::path::Path;
+use std::process::Output;
 
-fn scene_gen(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_scene-gen")).args(args).output().expect("scene-gen runs")
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("scene-gen-cli-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    dir
-}
+mod common;
+use common::{scene_gen, scratch};
 
 fn stderr(out: &Output) -> String {
     String::from_utf8_lossy(&out.stderr).into_owned()

@@ -11,19 +11,12 @@ use std::time::SystemTime;
 
 use scene_gen::dataset::{CocoInstances, Rle};
 
+mod common;
+use common::{scene_gen, scratch};
+
 /// Tiny settings: two houses, two frames each, 96 px wide, one ray per pixel.
 const ARGS: [&str; 10] =
     ["--seeds", "0..2", "--camera", "IMX174", "--frames", "2", "--max-width", "96", "--quality", "preview"];
-
-fn scene_gen(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_scene-gen")).args(args).output().expect("scene-gen runs")
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("scene-gen-dataset-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    dir
-}
 
 fn text(out: &Output) -> String {
     format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr))

@@ -6,7 +6,6 @@
 //! fields exit 2 naming the field, and a defocused render is softer with the same mean.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 use std::sync::OnceLock;
 
 use glam::Vec3;
@@ -15,6 +14,9 @@ use scene_gen::optics::{self, OpticsInput};
 use scene_gen::radiometry::{capture, capture_frame};
 use scene_gen::render::Camera;
 use scene_gen::sensor::Catalog;
+
+mod common;
+use common::{scene_gen, scratch};
 
 /// A `w x h` camera looking along +X with every optical effect off unless `edit` turns it on;
 /// pixel pitch forced to `pitch_um` (the physics only sees numbers).
@@ -283,16 +285,6 @@ fn capture_frame_without_optics_matches_capture() {
     let with = capture_frame(&r, &cam, &radiance, Some(input), 5.0, 1, 2);
     // Hyperfocal focus of 4 mm f/2 on 5.86 um pixels is 0.69 m; a plane at 2 m gets a 1.3 px CoC.
     assert_ne!(plain, with, "defocus must act when the depth is given");
-}
-
-fn scene_gen(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_scene-gen")).args(args).output().expect("scene-gen runs")
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("scene-gen-optics-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    dir
 }
 
 fn scene_json() -> &'static Path {

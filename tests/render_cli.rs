@@ -3,18 +3,11 @@
 //! agree with the images, night darker and relatively noisier than day, and determinism.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 use std::sync::OnceLock;
 
-fn scene_gen(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_scene-gen")).args(args).output().expect("scene-gen runs")
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("scene-gen-render-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    dir
-}
+mod common;
+use common::{scene_gen, scratch};
 
 fn stderr(out: &Output) -> String {
     String::from_utf8_lossy(&out.stderr).into_owned()

@@ -1,14 +1,10 @@
 //! `--format usda|usdc` without usd-core: refused with the install command, exit status 2 and
 //! nothing written. (The export itself is checked with usd-core in tests/interop/check_usd.sh.)
 
-use std::path::PathBuf;
 use std::process::{Command, Output};
 
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("scene-gen-usd-test-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    dir
-}
+mod common;
+use common::scratch;
 
 fn scene_gen_with_python(python: &str, format: &str, out: &std::path::Path) -> Output {
     Command::new(env!("CARGO_BIN_EXE_scene-gen"))
