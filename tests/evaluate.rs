@@ -207,6 +207,10 @@ fn bad_camera_specs_exit_2_without_output() {
         let out = cli(&["--camera", "IMX172", "--frames", "1", "--max-width", "32", extra[0], extra[1]]);
         assert_eq!(out.status.code(), Some(2), "{extra:?}: {}", String::from_utf8_lossy(&out.stderr));
     }
+    // A negative speed reaches the range check (not clap's "unexpected argument").
+    let out = cli(&["--camera", "IMX172", "--speed-m-s", "-1"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("must be a positive number"));
 }
 
 #[test]

@@ -25,7 +25,7 @@ pub struct EvaluateArgs {
     #[arg(long, default_value_t = scene_gen::evaluate::DEFAULT_MAX_WIDTH_PX)]
     pub max_width: u32,
     /// Agent walking speed, m/s (the 0.5 s threshold window is 0.5 m of walk at 1.0 m/s).
-    #[arg(long, default_value_t = scene_gen::evaluate::DEFAULT_SPEED_M_S)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = scene_gen::evaluate::DEFAULT_SPEED_M_S)]
     pub speed_m_s: f64,
     /// 8-bit output rule: `isp` (black level, fixed gain per scenario, sRGB curve) or `top_bits`.
     #[arg(long, default_value = "isp")]
