@@ -64,6 +64,38 @@
 //! * fitness = threshold accuracy + AP@0.5 + 0.0025 x mean inliers + 0.5 x inlier ratio
 //!   (weights in [`FitnessWeights`]), or the threshold term alone below the usable floor.
 //!
+//! # Day versus night (issue 5: night should score no higher than day)
+//!
+//! * **Render speckle (fixed).** The light-culling roulette counted the sun's unshadowed
+//!   illuminance in the day group's total, so behind walls and in corners the window lights were
+//!   traced at random with weights up to 10x: salt-and-pepper by day, taken by ORB for corners
+//!   and by the detector for noise. The sun is now always traced and left out of that total
+//!   ([`crate::render::LightSet::direct`]; docs/BENCHMARKS.md, "Speckle in preview day frames").
+//! * **Black day frames (open).** [`RenderSettings::preview`] traces no bounce light, so by day
+//!   every surface neither the sun nor a window reaches directly (window-less rooms, the hall,
+//!   shadowed walls) is exactly black, while at night every room has its ceiling light. A
+//!   camera with a narrow view often sees only such a surface, and its day frame has most
+//!   pixels at 0: not usable ([`USABLE_MAX_CLIPPED_FRACTION`]). Saturation adds little: no day
+//!   frame of these runs had more than 37 % of its pixels at 255, against up to 97 % at 0
+//!   (the ADC clips on sun patches, little else). Measured on the default optimizer run
+//!   (`--seeds 0..3`, 25 anchors, 320 px, 75 anchors per scenario, usable floor 38; day /
+//!   night fitness; usable images in brackets):
+//!
+//!   | candidate | sun in the cull total | sun traced apart (now) | and one bounce ray |
+//!   | --- | --- | --- | --- |
+//!   | MT9V032, 16.09 mm, -8.46 deg | 0 (25) / 1.27 (43) | 0 (34) / 1.27 (43) | 1.82 (42) / 1.54 (44) |
+//!   | IMX250, 10.47 mm, -1.53 deg | 0 (37) / 1.65 (57) | 2.40 (50) / 1.66 (57) | 2.28 (55) / 1.98 (57) |
+//!
+//!   One bounce ray per pixel (`indirect_rays: 1`) costs 1.8x to 1.9x the CPU time of a
+//!   candidate (MT9V032: 29.6 to 53.1 s user time). Not an exposure problem: an auto-exposure
+//!   cannot brighten radiance that is exactly zero.
+//! * **Detector (open).** Under the built-in [`DetectabilityModel`], AP@0.5 can *rise* with
+//!   noise by day (IMX172 on house 0, 12 anchors, 160 px: 0.79 at 1/30 s, 1.00 at 1 ms) and
+//!   the default camera scores higher at night than by day (IMX174 4 mm -10 deg, same
+//!   frames: day 0.46, night 0.79; 240 px: 0.48, 0.84), with or without its clutter false
+//!   positives. At night, where the noise is larger, AP does fall with it (0.86 to 0.40).
+//!   Threshold accuracy is geometric (equal), and ORB inliers are lower at night.
+//!
 //! Frames are rendered and scored in parallel (rayon); every random draw is seeded by the
 //! seed, pose index and scenario, and results are gathered in pose order, so the output does not
 //! depend on the thread count. Results are cached per process, keyed by the normalised spec
@@ -124,13 +156,12 @@ pub const DEFAULT_MIN_USABLE_FRACTION: f64 = 0.5;
 /// The evaluator's ray-tracer settings: [`RenderSettings::preview`] (one ray per pixel, no
 /// bounce, stochastic culling of weak lights, one sample per rect light).
 ///
-/// Known problem: with one sample per window (rect) light and stochastic light culling, walls
-/// lit through windows get salt-and-pepper render noise by day. ORB takes it for corners and
-/// the detector for sensor noise, so day AP can come out *below* night AP (house 0, 8 anchors,
-/// IMX174 4 mm: day 0.69, night 0.86). A shadow ray to every light and 3 x 3 rect samples
-/// (`light_cull = 0`, `rect_samples_per_axis = 3`) removes it (day 0.90, night 0.86) but made a
-/// two-house evaluation cost about 3x to 10x more render time on this machine, so it is not the
-/// default; set [`EvalConfig::render`] (and `render_name`) to use it.
+/// Known problems (module docs, "Day versus night"): the salt-and-pepper speckle that window-lit
+/// walls had by day came from the light-culling roulette counting the sun in the day total and is
+/// fixed there ([`crate::render::LightSet::direct`]). Without bounce light, surfaces no sun or
+/// window reaches directly are black by day, so narrow cameras lose usable day frames; one
+/// bounce ray (`indirect_rays: 1`) restores them at 1.8x to 1.9x the CPU time. Set
+/// [`EvalConfig::render`] (and `render_name`) to use other settings.
 #[must_use]
 pub fn eval_render_settings() -> RenderSettings {
     RenderSettings::preview()

@@ -58,9 +58,13 @@ fn on_the_same_camera_night_scores_no_higher_than_day() {
         // The ISP brings the night image to the day's brightness: ORB finds features at night.
         assert!(night.mean_keypoints > 0.0 && night.mean_inliers > 0.0, "{camera}: night {night:?}");
         assert_eq!(day.threshold_accuracy, night.threshold_accuracy, "geometric");
-        // AP is not asserted: the preview render's speckle on window-lit walls by day makes day
-        // AP fall below night AP on the default camera (a known problem, see
-        // evaluate::eval_render_settings).
+        // Detection. Before the sun was taken out of the light-culling total (render::lights)
+        // window-lit walls were speckled by day and day AP fell below night AP here (day 0.50
+        // vs night 0.70 on IMX174, 0.27 vs 0.60 on IMX172). On these 6 anchors (5 to 6
+        // objects) day and night now score the same (0.70, 0.60); on larger
+        // samples the built-in detector still scores the default camera higher at night (see
+        // the module docs of scene_gen::evaluate, "Day versus night").
+        assert!(night.ap50 <= day.ap50, "{camera}: AP50 night {} vs day {}", night.ap50, day.ap50);
         assert!(
             night.mean_inliers < day.mean_inliers,
             "{camera}: inliers {} vs {}",
@@ -88,14 +92,21 @@ fn on_the_same_camera_night_scores_no_higher_than_day() {
 
 #[test]
 fn more_noise_lowers_orb_inliers_and_detection() {
-    // A 30x shorter exposure: the ISP restores the brightness, so only the SNR drops.
-    let clean = eval("IMX172", &small());
-    let noisy = eval("IMX172,exposure_s=0.001", &small());
+    // A 30x shorter exposure: the ISP restores the brightness, so only the SNR drops. The usable
+    // floor is off so both scenarios are scored on everything.
+    let config = EvalConfig { min_usable_images: Some(0), ..small() };
+    let clean = eval("IMX172", &config);
+    let noisy = eval("IMX172,exposure_s=0.001", &config);
     let (c, n) = (&clean.scenarios.day, &noisy.scenarios.day);
     assert!(n.mean_inliers < c.mean_inliers, "inliers {} vs {}", n.mean_inliers, c.mean_inliers);
     assert!(n.inlier_ratio < c.inlier_ratio, "ratio {} vs {}", n.inlier_ratio, c.inlier_ratio);
-    // AP is not asserted: with 6 small anchors it rests on a handful of objects and the day
-    // render's speckle (see evaluate::eval_render_settings) dominates it.
+    // Detection is asserted at night (2 lux, 15 dB), where the shorter exposure leaves a CNR
+    // the detectability model resolves fewer objects at (AP50 0.6 -> 0 here; at 12 anchors and
+    // 160 or 240 px: 0.86 -> 0.40, 0.85 -> 0.33). By day (20 lux) the built-in detector's AP
+    // *rises* with this noise (0.6 -> 1.0 here, 0.79 -> 1.0 at 12 anchors): a known problem of
+    // the detector, not of the render (module docs of scene_gen::evaluate, "Day versus night").
+    let (c, n) = (&clean.scenarios.night, &noisy.scenarios.night);
+    assert!(n.ap50 < c.ap50, "night AP50 {} vs {}", n.ap50, c.ap50);
 }
 
 #[test]

@@ -163,12 +163,20 @@ impl LightSet {
     /// normal `ng` faces the side being lit and whose shading normal is `ns`; each rect light
     /// gets `rect_samples` area samples placed by `rect_strata`.
     ///
-    /// Light culling by Russian roulette (`cull` > 0): each light's unshadowed contribution
-    /// `b` (exact for point and directional lights, `min(pi L, L A / d^2)` for rects) is
-    /// compared with the group's total `B`; a light with `b < cull * B` is traced with
-    /// probability `p = b / (cull * B)` and weighted `1 / p`, so the estimate stays unbiased
-    /// while the lights of other rooms, nearly always behind walls, cost few shadow rays.
-    /// `p` depends only on ratios within a group, so culling commutes with light scaling.
+    /// Light culling by Russian roulette (`cull` > 0), for point and rect lights only: each
+    /// one's unshadowed contribution `b` (exact for point lights, `min(pi L, L A / d^2)` for
+    /// rects) is compared with its group's total `B` over those lights; a light with
+    /// `b < cull * B` is traced with probability `p = b / (cull * B)` and weighted `1 / p`, so
+    /// the estimate stays unbiased while the lights of other rooms, nearly always behind walls,
+    /// cost few shadow rays. `p` depends only on ratios within a group, so culling commutes
+    /// with light scaling.
+    ///
+    /// Directional lights (the sun) are always traced and left out of `B`. A house has one, so
+    /// tracing it costs one shadow ray; but its unshadowed illuminance is large at every point
+    /// that faces it, in the rooms and corners it cannot reach as well, so counted in `B` it
+    /// pushed the windows that really light such a point below the threshold and they were
+    /// traced with weights up to `1 / p`: salt-and-pepper speckle in one-sample day frames
+    /// (docs/BENCHMARKS.md, "Speckle in preview day frames").
     #[allow(clippy::too_many_arguments)]
     #[must_use]
     pub fn direct(
@@ -182,16 +190,15 @@ impl LightSet {
         cull: f32,
         sampler: &mut Sampler,
     ) -> GroupRgb {
-        // Each light's importance, computed once: it is needed for the group totals and again
-        // for the roulette. The first `IMPORTANCE_CACHE` lights keep theirs on the stack (no
-        // allocation per shading point); any further light is recomputed, to the same value.
+        // Each culled light's importance, computed once: it is needed for the group totals and
+        // again for the roulette. The first `IMPORTANCE_CACHE` lights keep theirs on the stack
+        // (no allocation per shading point); any further light is recomputed, to the same value.
         let mut cached = [0.0f32; IMPORTANCE_CACHE];
         let mut total = [0.0f32; 2];
         let importances = self
             .points
             .iter()
             .map(|l| (l.group, point_importance(l, point, ng, ns)))
-            .chain(self.directionals.iter().map(|l| (l.group, directional_importance(l, ng, ns))))
             .chain(self.rects.iter().map(|l| (l.group, rect_importance(l, point, ns))));
         for (i, (group, b)) in importances.enumerate() {
             total[group] += b;
@@ -201,7 +208,7 @@ impl LightSet {
         }
         let importance = |i: usize, recompute: &dyn Fn() -> f32| cached.get(i).copied().unwrap_or_else(recompute);
         let keep = |b: f32, group: usize, sampler: &mut Sampler| roulette(b, total[group], cull, sampler);
-        let (n_points, n_dirs) = (self.points.len(), self.directionals.len());
+        let n_points = self.points.len();
         let mut e = [Vec3::ZERO; 2];
         let eps = ray_epsilon(point);
         let origin = point + ng * eps;
@@ -216,17 +223,15 @@ impl LightSet {
                 e[light.group] += light.rgb_cd * (weight * ns.dot(dir) / dist2);
             }
         }
-        for (i, light) in self.directionals.iter().enumerate() {
-            let b = importance(n_points + i, &|| directional_importance(light, ng, ns));
-            let Some(weight) = keep(b, light.group, sampler) else { continue };
-            if !accel.occluded(origin, light.to_light, f32::INFINITY) {
-                e[light.group] += light.rgb_lux * (weight * ns.dot(light.to_light));
+        for light in &self.directionals {
+            if directional_importance(light, ng, ns) > 0.0 && !accel.occluded(origin, light.to_light, f32::INFINITY) {
+                e[light.group] += light.rgb_lux * ns.dot(light.to_light);
             }
         }
         let count = rect_samples.max(1);
         let inv_count = 1.0 / count as f32;
         for (i, light) in self.rects.iter().enumerate() {
-            let b = importance(n_points + n_dirs + i, &|| rect_importance(light, point, ns));
+            let b = importance(n_points + i, &|| rect_importance(light, point, ns));
             let Some(weight) = keep(b, light.group, sampler) else { continue };
             let mut sum = Vec3::ZERO;
             for m in 0..count {
@@ -327,4 +332,92 @@ fn rect_importance(light: &RectLight, point: Vec3, ns: Vec3) -> f32 {
 #[must_use]
 pub fn ray_epsilon(point: Vec3) -> f32 {
     1e-4 * (1.0 + point.abs().max_element())
+}
+
+#[cfg(test)]
+mod tests {
+    use glam::Mat4;
+
+    use super::*;
+    use crate::render::test_util::{add_material, add_mesh, directional_light, empty_scene, quad, rect_light};
+    use crate::scene::{LightGroup, Scene, Semantic};
+
+    /// A floor point at the origin, a wall at x = 1 between it and a low sun in the +x sky,
+    /// and a 1 m^2 window 1.4 m away on the other side (`L = 100` nit) shining at it: the sun's
+    /// unshadowed illuminance (7071 lux) is 140 times the window's, the shadowed sun gives 0.
+    fn sun_behind_a_wall(far_window: bool) -> Scene {
+        let mut scene = empty_scene();
+        let grey = add_material(&mut scene, "grey", [0.5, 0.5, 0.5], 0.0, 1.0);
+        let wall = quad(Vec3::new(1.0, 0.0, 0.0), Vec3::Z * 20.0, Vec3::Y * 20.0, grey);
+        add_mesh(&mut scene, wall, Mat4::IDENTITY, Semantic::Wall { wall: 0 });
+        let day = LightGroup::Day;
+        scene.lights.push(directional_light(day, Vec3::new(-1.0, 0.0, -1.0), 10_000.0));
+        scene.lights.push(rect_light(day, Vec3::new(-1.0, 0.0, 1.0), Vec3::Y, Vec3::Z, Vec3::X, 100.0));
+        if far_window {
+            // A weaker skylight 8 m overhead: importance and illuminance 200 / 64 = 3.1 against
+            // the near window's 50, so its p is 3.1 / (0.1 x 53.1) = 0.59.
+            scene.lights.push(rect_light(day, Vec3::new(0.0, 0.0, 8.0), Vec3::X, Vec3::Y, -Vec3::Z, 200.0));
+        }
+        scene
+    }
+
+    /// Day illuminance (luminance of the lux triple) at the origin with sampler key `key`.
+    fn day_lux(set: &LightSet, accel: &Accel, cull: f32, key: u64) -> f32 {
+        let mut sampler = Sampler::new(0, "lights-test", key);
+        let strata = Strata::independent(&mut sampler);
+        let e = set.direct(accel, Vec3::ZERO, Vec3::Z, Vec3::Z, 1, strata, cull, &mut sampler);
+        luminance(e[0])
+    }
+
+    #[test]
+    fn a_window_lit_point_with_the_sun_behind_a_wall_traces_the_window_every_time() {
+        let scene = sun_behind_a_wall(false);
+        let (accel, set) = (Accel::build(&scene), LightSet::new(&scene.lights, [1.0, 1.0]));
+        for key in 0..200 {
+            let exact = day_lux(&set, &accel, 0.0, key);
+            // The window alone: L A cos cos / d^2 = 100 x 1 x 0.7 x 0.7 / 2 = 25 lux at its
+            // centre; one random area sample stays within a factor of a few of that.
+            assert!(exact > 5.0 && exact < 60.0, "key {key}: {exact} lux");
+            // When the sun counted in the cull total, the window's p was 50 / (0.1 x 7121) =
+            // 0.07: most estimates were 0 and the rest 14x too bright.
+            assert_eq!(day_lux(&set, &accel, 0.1, key), exact, "key {key}");
+        }
+    }
+
+    #[test]
+    fn the_sun_is_traced_without_roulette_where_it_reaches() {
+        let mut scene = sun_behind_a_wall(false);
+        scene.geometry = Default::default();
+        let (accel, set) = (Accel::build(&scene), LightSet::new(&scene.lights, [1.0, 1.0]));
+        for key in 0..50 {
+            let e = day_lux(&set, &accel, 0.1, key);
+            let window = day_lux(&LightSet::new(&scene.lights[1..], [1.0, 1.0]), &accel, 0.1, key);
+            assert!((e - window - 10_000.0 * std::f32::consts::FRAC_1_SQRT_2).abs() < 0.05, "key {key}: {e}");
+        }
+    }
+
+    #[test]
+    fn a_weak_far_light_is_still_culled_without_bias_and_culling_commutes_with_scale() {
+        let scene = sun_behind_a_wall(true);
+        let accel = Accel::build(&scene);
+        let set = LightSet::new(&scene.lights, [1.0, 1.0]);
+        let brighter = LightSet::new(&scene.lights, [8.0, 1.0]);
+        let n: u32 = 4000;
+        let (mut exact, mut culled, mut skipped) = (0.0f64, 0.0f64, 0u32);
+        for key in 0..u64::from(n) {
+            let (e, c) = (day_lux(&set, &accel, 0.0, key), day_lux(&set, &accel, 0.1, key));
+            exact += f64::from(e);
+            culled += f64::from(c);
+            skipped += u32::from(c < e);
+            // The same draws decide at any scale: 8x the lights, 8x every estimate.
+            let b = day_lux(&brighter, &accel, 0.1, key);
+            assert!((b - 8.0 * c).abs() <= 1e-4 * b.max(1.0), "key {key}: {b} vs 8 x {c}");
+        }
+        // The skylight is skipped with probability 0.41 (and weighted 1 / 0.59 otherwise) ...
+        assert!((1200..2100).contains(&skipped), "skipped on {skipped} of {n} keys");
+        // ... yet the mean is that of tracing every light: the skylight is 11 % of it, and its
+        // roulette adds about 0.15 % standard error.
+        let (exact, culled) = (exact / f64::from(n), culled / f64::from(n));
+        assert!((culled - exact).abs() < 0.01 * exact, "culled {culled} vs exact {exact}");
+    }
 }
