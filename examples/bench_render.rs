@@ -21,7 +21,10 @@
 //!   `--spp` must be a square;
 //! * `pair`: the day + night pair at `--res` (light scaling measured once, outside the time);
 //! * `speckle`: a `preview` day frame with light culling threshold `--cull` (default 0.1) and
-//!   its speckle (see [`speckle`]): how noisy the culling roulette leaves a one-sample frame.
+//!   its speckle (see [`speckle`]): how noisy the culling roulette leaves a one-sample frame;
+//! * `decoupled`: a `preview` frame (culling `--cull`, `--rect` x `--rect` rect samples) at full
+//!   shading rate and with [`ShadingRate::Decoupled`] at `--stride` (default 2), each timed
+//!   once, and the error of the decoupled frame against the full-rate one (see [`shading_error`]).
 //!
 //! Every resolution keeps the horizontal field of view of the full 1936 px sensor (the pixel
 //! pitch is scaled), so all sizes show the same scene. `--camera-out` writes the camera (pose,
@@ -41,7 +44,7 @@ use scene_gen::evaluate::scenario_light_scales;
 use scene_gen::generate::generate;
 use scene_gen::library::Library;
 use scene_gen::radiometry::capture;
-use scene_gen::render::{Camera, RenderSettings, Renderer};
+use scene_gen::render::{Camera, Frame, RenderSettings, Renderer, ShadingRate};
 use scene_gen::scene::{Light, LightGroup, LightKind, Scene};
 use scene_gen::sensor::Catalog;
 use scene_gen::trajectory::{self, TrajectoryParams};
@@ -255,6 +258,36 @@ fn speckle(frame: &scene_gen::render::Frame, w: u32, h: u32) -> (f64, usize) {
     (sum / n.max(1) as f64, zero)
 }
 
+/// Error of radiance `test` against `reference`, per light group, over the luminance `Y` of
+/// each pixel: (relative mean absolute error `sum |dY| / sum Y`, the same over the means of
+/// 8 x 8 pixel blocks, where per-pixel sampling noise mostly averages out and what is left is
+/// the bias of interpolation, relative error of the frame mean).
+fn shading_error(reference: &Frame, test: &Frame) -> [(f64, f64, f64); 2] {
+    let (w, h) = (reference.width as usize, reference.height as usize);
+    [(&reference.day_nit, &test.day_nit), (&reference.night_nit, &test.night_nit)].map(|(a, b)| {
+        let ya = Frame::luminance_nit(a);
+        let yb = Frame::luminance_nit(b);
+        let sum_a: f64 = ya.iter().map(|&v| f64::from(v)).sum();
+        let sum_b: f64 = yb.iter().map(|&v| f64::from(v)).sum();
+        let abs: f64 = ya.iter().zip(&yb).map(|(&p, &q)| f64::from((p - q).abs())).sum();
+        let mut block_abs = 0.0;
+        for by in (0..h).step_by(8) {
+            for bx in (0..w).step_by(8) {
+                let (mut sa, mut sb) = (0.0f64, 0.0f64);
+                for y in by..(by + 8).min(h) {
+                    for x in bx..(bx + 8).min(w) {
+                        sa += f64::from(ya[y * w + x]);
+                        sb += f64::from(yb[y * w + x]);
+                    }
+                }
+                block_abs += (sa - sb).abs();
+            }
+        }
+        let denom = sum_a.max(f64::MIN_POSITIVE);
+        (abs / denom, block_abs / denom, (sum_b - sum_a) / denom)
+    })
+}
+
 struct Args {
     case: Option<String>,
     width: u32,
@@ -264,11 +297,23 @@ struct Args {
     camera_out: Option<PathBuf>,
     depth_out: Option<PathBuf>,
     cull: f32,
+    rect: u32,
+    stride: u32,
 }
 
 fn parse_args() -> BoxResult<Args> {
-    let mut args =
-        Args { case: None, width: 640, height: 480, threads: 1, spp: 1, camera_out: None, depth_out: None, cull: 0.1 };
+    let mut args = Args {
+        case: None,
+        width: 640,
+        height: 480,
+        threads: 1,
+        spp: 1,
+        camera_out: None,
+        depth_out: None,
+        cull: 0.1,
+        rect: 1,
+        stride: 2,
+    };
     let mut it = std::env::args().skip(1);
     while let Some(flag) = it.next() {
         let mut value = || it.next().ok_or_else(|| format!("{flag} needs a value"));
@@ -284,6 +329,8 @@ fn parse_args() -> BoxResult<Args> {
             "--camera-out" => args.camera_out = Some(value()?.into()),
             "--depth-out" => args.depth_out = Some(value()?.into()),
             "--cull" => args.cull = value()?.parse()?,
+            "--rect" => args.rect = value()?.parse()?,
+            "--stride" => args.stride = value()?.parse()?,
             _ => return Err(format!("unknown argument {flag}").into()),
         }
     }
@@ -389,7 +436,37 @@ fn run_case(setup: &Setup, args: &Args, case: &str) -> BoxResult<()> {
             let (speckle, zero_median) = speckle(&frame?, args.width, args.height);
             (times, 0, serde_json::json!({ "cull": args.cull, "speckle": speckle, "zero_median_px": zero_median }))
         }
-        _ => return Err(format!("--case {case}: expected primary, shadow, direct, pair or speckle").into()),
+        "decoupled" => {
+            let full =
+                RenderSettings { light_cull: args.cull, rect_samples_per_axis: args.rect, ..RenderSettings::preview() };
+            let decoupled =
+                RenderSettings { shading: ShadingRate::Decoupled { stride: args.stride, min_width_px: 0 }, ..full };
+            let run = |settings: RenderSettings| -> BoxResult<(f64, f64, Frame)> {
+                let renderer = Renderer::new(&setup.scene, settings);
+                let cpu0 = process_cpu_s();
+                let start = Instant::now();
+                let frame = pool.install(|| renderer.render(&camera))?;
+                Ok((start.elapsed().as_secs_f64(), process_cpu_s() - cpu0, frame))
+            };
+            let (full_s, full_cpu_s, reference) = run(full)?;
+            let (dec_s, dec_cpu_s, frame) = run(decoupled)?;
+            LAST_CPU_S.with(|c| c.set(dec_cpu_s));
+            let [day, night] = shading_error(&reference, &frame);
+            let err = |e: (f64, f64, f64)| serde_json::json!({ "pixel_mae": e.0, "block8_mae": e.1, "mean": e.2 });
+            (
+                vec![dec_s],
+                0,
+                serde_json::json!({
+                    "cull": args.cull, "rect": args.rect, "stride": args.stride,
+                    "full_s": full_s, "full_cpu_s": full_cpu_s, "decoupled_s": dec_s, "decoupled_cpu_s": dec_cpu_s,
+                    "labels_identical": reference.depth_m == frame.depth_m && reference.instance_id == frame.instance_id,
+                    "day_error": err(day), "night_error": err(night),
+                }),
+            )
+        }
+        _ => {
+            return Err(format!("--case {case}: expected primary, shadow, direct, pair, speckle or decoupled").into());
+        }
     };
     let b = best(&times);
     let mut out = serde_json::json!({

@@ -124,7 +124,7 @@ use crate::lights::{DAY_TARGET_LUX, NIGHT_TARGET_LUX, TARGET_PLANE_M};
 use crate::optics::{OpticsInput, agent_velocity};
 use crate::orb::{FundamentalRansac, Orb, match_and_verify};
 use crate::radiometry::capture_frame;
-use crate::render::{Frame, RenderError, RenderSettings, Renderer, measure_mean_illuminance};
+use crate::render::{Frame, RenderError, RenderSettings, Renderer, ShadingRate, measure_mean_illuminance};
 use crate::scene::{LightGroup, ObjectClass, THRESHOLD_CLASS_ID, THRESHOLD_CLASS_NAME};
 use crate::sensor::Catalog;
 use crate::trajectory::{self, TrajectoryParams};
@@ -153,8 +153,24 @@ pub const USABLE_MAX_CLIPPED_FRACTION: f64 = 0.5;
 /// detection and ORB) at any frame count.
 pub const DEFAULT_MIN_USABLE_FRACTION: f64 = 0.5;
 
-/// The evaluator's ray-tracer settings: [`RenderSettings::preview`] (one ray per pixel, no
-/// bounce, stochastic culling of weak lights, one sample per rect light).
+/// Frames at least this wide are shaded with [`ShadingRate::Decoupled`] by the evaluator
+/// (1280 px: above the 320 to 640 px evaluations, which stay at full rate).
+pub const EVAL_DECOUPLED_MIN_WIDTH_PX: u32 = 1280;
+/// Anchor spacing of the evaluator's decoupled shading, pixels.
+pub const EVAL_DECOUPLED_STRIDE: u32 = 3;
+
+/// The evaluator's ray-tracer settings: [`RenderSettings::preview`] (one ray per pixel through
+/// its centre, no bounce, stochastic culling of weak lights, one sample per rect light), with
+/// [`ShadingRate::Decoupled`] shading (irradiance every [`EVAL_DECOUPLED_STRIDE`] pixels,
+/// interpolated over the same surface) on frames at least [`EVAL_DECOUPLED_MIN_WIDTH_PX`] wide.
+///
+/// Why decoupled shading there: shadow rays and light selection are about 55 % of a preview
+/// frame and nearly all of it is irradiance, which varies slowly over a surface, while
+/// texture and edges, which ORB and the detector see, are still sampled at every pixel. At
+/// 1936 x 1216 it made a preview frame about 2.4x cheaper for a relative radiance error of
+/// about 1 % per pixel at night (8 x 8 blocks: 0.6 %; frame mean: 0.005 %); by day the
+/// one-sample window noise (50 % per pixel) dwarfs it. See docs/BENCHMARKS.md ("Decoupled
+/// shading") for the figures and the change in scores.
 ///
 /// Known problems (module docs, "Day versus night"): the salt-and-pepper speckle that window-lit
 /// walls had by day came from the light-culling roulette counting the sun in the day total and is
@@ -164,7 +180,10 @@ pub const DEFAULT_MIN_USABLE_FRACTION: f64 = 0.5;
 /// [`EvalConfig::render`] (and `render_name`) to use other settings.
 #[must_use]
 pub fn eval_render_settings() -> RenderSettings {
-    RenderSettings::preview()
+    RenderSettings {
+        shading: ShadingRate::Decoupled { stride: EVAL_DECOUPLED_STRIDE, min_width_px: EVAL_DECOUPLED_MIN_WIDTH_PX },
+        ..RenderSettings::preview()
+    }
 }
 
 /// Weights of the fitness terms.

@@ -8,7 +8,9 @@ use scene_gen::render::test_util::{
     add_material, add_mesh, box_primitive, camera, directional_light, empty_scene, point_light, quad, rect_light,
     room_of_boxes,
 };
-use scene_gen::render::{Camera, Frame, LightScale, RenderSettings, Renderer, measure_mean_illuminance, probe_points};
+use scene_gen::render::{
+    Camera, Frame, LightScale, RenderSettings, Renderer, ShadingRate, measure_mean_illuminance, probe_points,
+};
 use scene_gen::scene::{LightGroup, Object, ObjectClass, Primitive, Room, Scene, Semantic, Texture};
 
 const ALBEDO: f32 = 0.5;
@@ -348,6 +350,96 @@ fn frames_do_not_depend_on_thread_count() {
         Renderer::new(&scene, RenderSettings { seed: 1, ..RenderSettings::standard() }).render(&cam).unwrap();
     assert!(reseeded.day_nit != one.day_nit, "the sampling seed changes the noise");
     assert_eq!(reseeded.instance_id, one.instance_id, "but not the labels");
+}
+
+/// `preview` with [`ShadingRate::Decoupled`] at `stride` on frames of any width.
+fn decoupled(stride: u32) -> RenderSettings {
+    RenderSettings { shading: ShadingRate::Decoupled { stride, min_width_px: 0 }, ..RenderSettings::preview() }
+}
+
+#[test]
+fn decoupled_shading_interpolates_smooth_light_and_keeps_labels() {
+    // A point light over the floor: irradiance varies smoothly (cos^3 / h^2), no noise.
+    let mut scene = floor_scene();
+    scene.lights.push(point_light(LightGroup::Night, Vec3::new(0.3, -0.2, 2.0), 100.0));
+    let cam = down_camera(Vec3::new(0.0, 0.0, 1.5), 61, 47);
+    let full = Renderer::new(&scene, RenderSettings::preview()).render(&cam).unwrap();
+    let frame = Renderer::new(&scene, decoupled(3)).render(&cam).unwrap();
+    assert_no_nan(&frame);
+    assert_eq!((&frame.depth_m, &frame.instance_id, &frame.normal), (&full.depth_m, &full.instance_id, &full.normal));
+    let (mut max_rel, mut differing) = (0.0f32, 0);
+    for y in 0..cam.height_px {
+        for x in 0..cam.width_px {
+            let i = full.index(x, y);
+            let (want, got) = (lum(full.night_nit[i]), lum(frame.night_nit[i]));
+            let anchor = (x % 3 == 0 || x == cam.width_px - 1) && (y % 3 == 0 || y == cam.height_px - 1);
+            if anchor {
+                assert_eq!(full.night_nit[i], frame.night_nit[i], "anchor ({x}, {y}) is shaded in full");
+            } else if got != want {
+                differing += 1;
+            }
+            max_rel = max_rel.max(((got - want) / want).abs());
+        }
+    }
+    // Interpolated, not recomputed: the in-between pixels differ (by rounding at least)...
+    assert!(differing > 1000, "{differing} interpolated pixels differ from full shading");
+    // ...by the bilinear error of a smooth field over 3 px (about 2 cm of floor here).
+    assert!(max_rel < 2e-3, "largest relative error {max_rel}");
+}
+
+#[test]
+fn decoupled_shading_never_blends_across_surfaces() {
+    // Sun straight down on a floor and a box: the box's top and the floor get the same
+    // irradiance, its sides none, its shadow hides under it. A pixel that took irradiance from
+    // an anchor on another face (a side from the top or the floor) would be far off.
+    let mut scene = floor_scene();
+    scene.lights.push(directional_light(LightGroup::Day, -Vec3::Z, 1000.0));
+    let m = add_material(&mut scene, "wood_0", [0.3, 0.6, 0.2], 0.0, 1.0);
+    add_mesh(
+        &mut scene,
+        box_primitive(Vec3::new(-0.4, -0.3, 0.0), Vec3::new(0.3, 0.35, 0.6), m, false),
+        Mat4::IDENTITY,
+        Semantic::Decor { room: 0 },
+    );
+    let cam = Camera { pixel_pitch_um: 20.0, ..camera(80, 60, Vec3::new(-1.2, -1.4, 1.6), 45.0, -40.0) };
+    let full = Renderer::new(&scene, RenderSettings::preview()).render(&cam).unwrap();
+    for stride in [2, 4] {
+        let frame = Renderer::new(&scene, decoupled(stride)).render(&cam).unwrap();
+        let sides = full.day_nit.iter().filter(|c| lum(**c) == 0.0 && c.iter().all(|v| *v == 0.0)).count();
+        assert!(sides > 100, "{sides} px of unlit box sides in view");
+        for (i, (a, b)) in full.day_nit.iter().zip(&frame.day_nit).enumerate() {
+            let (a, b) = (Vec3::from(*a), Vec3::from(*b));
+            assert!(
+                (a - b).abs().max_element() <= 1e-4 * a.max_element().max(1.0),
+                "stride {stride} pixel {i}: {a} vs {b}"
+            );
+        }
+    }
+}
+
+#[test]
+fn decoupled_shading_applies_only_where_configured() {
+    let scene = room_of_boxes(Vec3::new(6.0, 5.0, 2.6), 4);
+    let cam = Camera { pixel_pitch_um: 20.0, ..camera(48, 32, Vec3::new(0.5, 0.5, 1.6), 40.0, -20.0) };
+    let full = Renderer::new(&scene, RenderSettings::preview()).render(&cam).unwrap();
+    let narrow =
+        RenderSettings { shading: ShadingRate::Decoupled { stride: 2, min_width_px: 49 }, ..RenderSettings::preview() };
+    assert!(Renderer::new(&scene, narrow).render(&cam).unwrap() == full, "narrower than min_width_px: full rate");
+    assert!(Renderer::new(&scene, decoupled(1)).render(&cam).unwrap() == full, "stride 1 is full rate");
+    let standard = RenderSettings { shading: decoupled(2).shading, ..RenderSettings::standard() };
+    assert!(
+        Renderer::new(&scene, standard).render(&cam).unwrap()
+            == Renderer::new(&scene, RenderSettings::standard()).render(&cam).unwrap(),
+        "several camera rays per pixel: full rate"
+    );
+    // Applied: thread-count independent, and different from full rate.
+    let renderer = Renderer::new(&scene, decoupled(2));
+    let pool = |n| rayon::ThreadPoolBuilder::new().num_threads(n).build().unwrap();
+    let a = pool(1).install(|| renderer.render(&cam)).unwrap();
+    let b = pool(2).install(|| renderer.render(&cam)).unwrap();
+    assert!(a == b, "decoupled frames differ between 1 and 2 threads");
+    assert!(a.day_nit != full.day_nit, "decoupled shading was not applied");
+    assert_eq!(a.instance_id, full.instance_id);
 }
 
 #[test]

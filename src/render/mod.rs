@@ -46,7 +46,8 @@ pub use camera::{Camera, DEFAULT_LENS_TRANSMITTANCE, sensor_illuminance_lux};
 pub use lights::{LightSet, luminance};
 
 use crate::scene::{LightGroup, Scene};
-use shade::Tracer;
+use accel::SurfacePoint;
+use shade::{Primary, Tracer};
 
 /// Per-group linear RGB: index 0 is [`LightGroup::Day`], 1 is [`LightGroup::Night`].
 pub type GroupRgb = [Vec3; 2];
@@ -83,6 +84,26 @@ pub const DEFAULT_INDIRECT_CLAMP: f32 = 4.0;
 /// most such lights are in other rooms, behind walls).
 pub const DEFAULT_LIGHT_CULL: f32 = 0.1;
 
+/// Where the diffuse irradiance of a frame is computed ([`RenderSettings::shading`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ShadingRate {
+    /// At every pixel (every camera sample).
+    Full,
+    /// Decoupled shading, a deferred-lighting approximation, for frames of one camera ray per
+    /// pixel (`samples_per_axis` 1) at least `min_width_px` wide: the irradiance `E` (direct
+    /// light and bounce, the part that costs shadow and bounce rays) is computed only at the
+    /// *anchor* pixels, every `stride`-th pixel of every `stride`-th row plus the last column
+    /// and row. Every other pixel still traces its own camera ray (depth, ids, normal, texture
+    /// and albedo at full resolution) and takes `E` as the bilinear mix of the surrounding
+    /// anchors that lie on the same surface (same instance and material, normals within about
+    /// 18 degrees, within 1 % of the ray length of the anchor's tangent plane); a pixel with no
+    /// such anchor is shaded in full. Radiance is then `rho / pi * E` per pixel, so texture
+    /// stays sharp while shadow edges blur over `stride` pixels and the per-pixel light noise
+    /// is averaged over neighbours. Ignored for `stride` below 2, narrower frames, or more than
+    /// one camera ray per pixel.
+    Decoupled { stride: u32, min_width_px: u32 },
+}
+
 /// Sample counts; a plain `Copy` struct with presets, each field a quality/time trade-off.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RenderSettings {
@@ -100,6 +121,8 @@ pub struct RenderSettings {
     /// Russian-roulette light culling threshold, a fraction of a group's total unshadowed
     /// illuminance (see [`lights::LightSet::direct`]); 0 traces a shadow ray to every light.
     pub light_cull: f32,
+    /// How densely the irradiance is computed; [`ShadingRate::Full`] in every preset.
+    pub shading: ShadingRate,
     /// Rays for the indirect term of [`Renderer::illuminance_lux`].
     pub probe_indirect_rays: u32,
     /// Rect light samples per axis for [`Renderer::illuminance_lux`].
@@ -110,6 +133,7 @@ pub struct RenderSettings {
 
 impl RenderSettings {
     /// One ray per pixel, no bounce: geometry and direct light checks in a fraction of the time.
+    /// The one ray goes through the pixel centre and gives both the labels and the radiance.
     #[must_use]
     pub const fn preview() -> RenderSettings {
         RenderSettings {
@@ -119,6 +143,7 @@ impl RenderSettings {
             specular: false,
             indirect_clamp: DEFAULT_INDIRECT_CLAMP,
             light_cull: DEFAULT_LIGHT_CULL,
+            shading: ShadingRate::Full,
             probe_indirect_rays: 16,
             probe_rect_samples_per_axis: 2,
             seed: 0,
@@ -135,6 +160,7 @@ impl RenderSettings {
             specular: true,
             indirect_clamp: DEFAULT_INDIRECT_CLAMP,
             light_cull: DEFAULT_LIGHT_CULL,
+            shading: ShadingRate::Full,
             probe_indirect_rays: 64,
             probe_rect_samples_per_axis: 4,
             seed: 0,
@@ -151,6 +177,7 @@ impl RenderSettings {
             specular: true,
             indirect_clamp: DEFAULT_INDIRECT_CLAMP,
             light_cull: DEFAULT_LIGHT_CULL,
+            shading: ShadingRate::Full,
             probe_indirect_rays: 256,
             probe_rect_samples_per_axis: 6,
             seed: 0,
@@ -282,6 +309,107 @@ struct PixelOut {
     normal: Vec3,
 }
 
+/// An anchor pixel of [`ShadingRate::Decoupled`]: where its surface is and the irradiance it got.
+#[derive(Clone, Copy)]
+struct Guide {
+    position: Vec3,
+    normal: Vec3,
+    material: usize,
+    instance_id: u32,
+    irradiance: GroupRgb,
+}
+
+/// Anchors whose normal is within this cosine of a pixel's (about 18 degrees) may lend it their
+/// irradiance. Engineering choice: curved furniture with smooth normals still shares, the faces
+/// of a box (90 degrees apart) never do.
+const GUIDE_MIN_COS: f32 = 0.95;
+/// Anchors farther than this fraction of a pixel's ray length from its tangent plane lend it
+/// nothing (1 %: 3 cm at 3 m, several pixel footprints at 1936 px; parallel shelves or a box on
+/// the floor are farther apart). Engineering choice.
+const GUIDE_PLANE_TOLERANCE: f32 = 0.01;
+
+/// The anchors of a decoupled-shading frame, row-major, with their finished pixels.
+struct AnchorGrid {
+    stride: u32,
+    width: u32,
+    height: u32,
+    cols: u32,
+    rows: u32,
+    pixels: Vec<PixelOut>,
+    guides: Vec<Option<Guide>>,
+}
+
+impl AnchorGrid {
+    /// Anchor columns (or rows) of a frame side of `n` pixels: every `stride`-th and the last.
+    fn count(n: u32, stride: u32) -> u32 {
+        n.saturating_sub(1).div_ceil(stride) + 1
+    }
+
+    /// Pixel coordinate of anchor column (or row) `i` on a side of `n` pixels.
+    fn coord(&self, i: u32, n: u32) -> u32 {
+        (i * self.stride).min(n - 1)
+    }
+
+    /// Anchor column (or row) at pixel coordinate `v` of a side of `n` pixels, if it is one.
+    fn anchor_at(&self, v: u32, n: u32) -> Option<u32> {
+        if v % self.stride == 0 {
+            Some(v / self.stride)
+        } else if v == n - 1 {
+            Some(Self::count(n, self.stride) - 1)
+        } else {
+            None
+        }
+    }
+
+    /// Index of pixel (x, y) among the anchors, if it is one.
+    fn index(&self, x: u32, y: u32) -> Option<usize> {
+        let cx = self.anchor_at(x, self.width)?;
+        let cy = self.anchor_at(y, self.height)?;
+        Some(cy as usize * self.cols as usize + cx as usize)
+    }
+
+    /// The surrounding anchors of coordinate `v` and the weight of the second.
+    fn span(&self, v: u32, n: u32, count: u32) -> (u32, u32, f32) {
+        let i0 = (v / self.stride).min(count - 1);
+        let i1 = (i0 + 1).min(count - 1);
+        let (v0, v1) = (self.coord(i0, n), self.coord(i1, n));
+        let f = if v1 > v0 { (v - v0) as f32 / (v1 - v0) as f32 } else { 0.0 };
+        (i0, i1, f)
+    }
+
+    /// Irradiance at pixel (x, y), whose ray of length `t` hit `surface` (of `instance_id`), as
+    /// the bilinear mix of the surrounding anchors on the same surface; `None` when there is none.
+    fn irradiance(&self, x: u32, y: u32, surface: &SurfacePoint, instance_id: u32, t: f32) -> Option<GroupRgb> {
+        let (cx0, cx1, fx) = self.span(x, self.width, self.cols);
+        let (cy0, cy1, fy) = self.span(y, self.height, self.rows);
+        let corners = [
+            (cx0, cy0, (1.0 - fx) * (1.0 - fy)),
+            (cx1, cy0, fx * (1.0 - fy)),
+            (cx0, cy1, (1.0 - fx) * fy),
+            (cx1, cy1, fx * fy),
+        ];
+        let n = surface.shading_normal;
+        let mut sum = [Vec3::ZERO; 2];
+        let mut weight = 0.0;
+        for (cx, cy, w) in corners {
+            if w <= 0.0 {
+                continue;
+            }
+            let Some(g) = &self.guides[cy as usize * self.cols as usize + cx as usize] else { continue };
+            if g.instance_id == instance_id
+                && g.material == surface.material
+                && g.normal.dot(n) >= GUIDE_MIN_COS
+                && (g.position - surface.position).dot(n).abs() <= GUIDE_PLANE_TOLERANCE * t
+            {
+                sum[0] += g.irradiance[0] * w;
+                sum[1] += g.irradiance[1] * w;
+                weight += w;
+            }
+        }
+        (weight > 0.0).then(|| sum.map(|c| c / weight))
+    }
+}
+
 /// A scene prepared for rendering: its BVH, its lights and the sample counts.
 pub struct Renderer<'a> {
     scene: &'a Scene,
@@ -319,7 +447,45 @@ impl<'a> Renderer<'a> {
     /// # Errors
     /// [`RenderError::BadCamera`] for a camera that fails [`Camera::validate`].
     pub fn render(&self, camera: &Camera) -> Result<Frame, RenderError> {
-        self.render_with(camera, |basis, x, y| self.render_pixel(camera, basis, x, y))
+        if self.settings.samples_per_axis > 1 {
+            return self.render_with(camera, |basis, x, y| self.render_pixel(camera, basis, x, y));
+        }
+        match self.settings.shading {
+            ShadingRate::Decoupled { stride, min_width_px } if stride >= 2 && camera.width_px >= min_width_px => {
+                self.render_decoupled(camera, stride)
+            }
+            _ => self.render_with(camera, |basis, x, y| self.centre_pixel(camera, basis, x, y, None).0),
+        }
+    }
+
+    /// [`ShadingRate::Decoupled`]: the anchors first (shaded in full, rows in parallel), then
+    /// every other pixel from its own camera ray and the anchors' irradiance.
+    fn render_decoupled(&self, camera: &Camera, stride: u32) -> Result<Frame, RenderError> {
+        camera.validate()?;
+        let (w, h) = (camera.width_px, camera.height_px);
+        let basis = camera.basis();
+        let mut grid = AnchorGrid {
+            stride,
+            width: w,
+            height: h,
+            cols: AnchorGrid::count(w, stride),
+            rows: AnchorGrid::count(h, stride),
+            pixels: Vec::new(),
+            guides: Vec::new(),
+        };
+        let anchors: Vec<(PixelOut, Option<Guide>)> = (0..grid.rows)
+            .into_par_iter()
+            .flat_map_iter(|cy| {
+                let grid = &grid;
+                let y = grid.coord(cy, h);
+                (0..grid.cols).map(move |cx| self.centre_pixel(camera, basis, grid.coord(cx, w), y, None))
+            })
+            .collect();
+        (grid.pixels, grid.guides) = anchors.into_iter().unzip();
+        self.render_with(camera, |basis, x, y| match grid.index(x, y) {
+            Some(i) => grid.pixels[i],
+            None => self.centre_pixel(camera, basis, x, y, Some(&grid)).0,
+        })
     }
 
     /// Depth, instance and class ids and normals of `camera`'s view, exactly as [`Renderer::render`]
@@ -341,9 +507,14 @@ impl<'a> Renderer<'a> {
         camera.validate()?;
         let (w, h) = (camera.width_px, camera.height_px);
         let basis = camera.basis();
-        let rows: Vec<Vec<PixelOut>> =
-            (0..h).into_par_iter().map(|y| (0..w).map(|x| pixel(basis, x, y)).collect()).collect();
         let n = w as usize * h as usize;
+        // One buffer written row by row in parallel (no per-row vectors to gather).
+        let mut pixels = vec![PixelOut::default(); n];
+        pixels.par_chunks_mut(w.max(1) as usize).enumerate().for_each(|(y, row)| {
+            for (x, p) in row.iter_mut().enumerate() {
+                *p = pixel(basis, x as u32, y as u32);
+            }
+        });
         let mut frame = Frame {
             width: w,
             height: h,
@@ -354,7 +525,7 @@ impl<'a> Renderer<'a> {
             class_id: Vec::with_capacity(n),
             normal: Vec::with_capacity(n),
         };
-        for p in rows.iter().flatten() {
+        for p in &pixels {
             frame.day_nit.push(p.radiance[0].to_array());
             frame.night_nit.push(p.radiance[1].to_array());
             frame.depth_m.push(p.depth_m);
@@ -379,6 +550,61 @@ impl<'a> Renderer<'a> {
             out.normal = surface.shading_normal;
         }
         out
+    }
+
+    /// One pixel of one camera ray (`samples_per_axis` 1): the ray through its centre gives the
+    /// labels and the radiance. With `grid`, the irradiance comes from its anchors where they
+    /// lie on the same surface. Also returns the pixel's [`Guide`] when its surface is diffuse.
+    fn centre_pixel(
+        &self,
+        camera: &Camera,
+        basis: (Vec3, Vec3, Vec3),
+        x: u32,
+        y: u32,
+        grid: Option<&AnchorGrid>,
+    ) -> (PixelOut, Option<Guide>) {
+        let tracer = self.tracer();
+        let origin = camera.position;
+        let dir = camera.ray_direction_in(basis, x as f32 + 0.5, y as f32 + 0.5);
+        let hit =
+            self.accel.closest_hit(origin, dir, f32::INFINITY).map(|h| (h.t, self.accel.surface(&h, origin, dir)));
+        let mut out = PixelOut { depth_m: f32::INFINITY, ..PixelOut::default() };
+        if let Some((t, surface)) = &hit {
+            let label = self.accel.label(surface.node);
+            out.depth_m = t * dir.dot(basis.0);
+            out.instance_id = label.instance_id;
+            out.class_id = label.class_id;
+            out.normal = surface.shading_normal;
+        }
+        let key = u64::from(y) * u64::from(camera.width_px) + u64::from(x);
+        let mut sampler = Sampler::new(self.settings.seed, "render/pixel", key);
+        let rotation = sampler.uniform();
+        let rect_rotation = sampler.uniform();
+        let strata = Strata { first: 0, stride: 1, total: self.settings.indirect_rays, rotation };
+        let rect_total = self.settings.rect_samples_per_axis.pow(2);
+        let rect_strata = Strata { first: 0, stride: 1, total: rect_total, rotation: rect_rotation };
+        let t = hit.map_or(f32::INFINITY, |h| h.0);
+        let mut guide = None;
+        let radiance = match tracer.primary(origin, dir, hit) {
+            Primary::Miss => [Vec3::ZERO; 2],
+            Primary::Emitter(l) => l,
+            Primary::Surface(s) => {
+                let e = (s.response.diffuse != Vec3::ZERO).then(|| {
+                    grid.and_then(|g| g.irradiance(x, y, &s.surface, out.instance_id, t))
+                        .unwrap_or_else(|| tracer.irradiance(&s.surface, strata, rect_strata, &mut sampler))
+                });
+                guide = e.map(|irradiance| Guide {
+                    position: s.surface.position,
+                    normal: s.surface.shading_normal,
+                    material: s.surface.material,
+                    instance_id: out.instance_id,
+                    irradiance,
+                });
+                tracer.surface_radiance(dir, &s, e, &mut sampler)
+            }
+        };
+        out.radiance = finite_radiance(radiance);
+        (out, guide)
     }
 
     /// One pixel: labels from the ray through its centre, radiance averaged over `n x n`
@@ -409,11 +635,7 @@ impl<'a> Renderer<'a> {
             }
         }
         let inv = 1.0 / (n * n) as f32;
-        // Guard the contract "no NaN anywhere": a non-finite sample would poison the frame.
-        out.radiance = sum.map(|c| {
-            let c = c * inv;
-            if c.is_finite() { c.max(Vec3::ZERO) } else { Vec3::ZERO }
-        });
+        out.radiance = finite_radiance(sum.map(|c| c * inv));
         out
     }
 
@@ -446,6 +668,11 @@ impl<'a> Renderer<'a> {
         let e = luminance(direct[g] + indirect[g]);
         if e.is_finite() { e.max(0.0) } else { 0.0 }
     }
+}
+
+/// Guards the contract "no NaN anywhere": a non-finite sample would poison the frame.
+fn finite_radiance(l: GroupRgb) -> GroupRgb {
+    l.map(|c| if c.is_finite() { c.max(Vec3::ZERO) } else { Vec3::ZERO })
 }
 
 /// Spacing of the illuminance probe grid in each room (metres).

@@ -113,6 +113,23 @@ pub fn surface_response(scene: &Scene, surface: &SurfacePoint) -> SurfaceRespons
     SurfaceResponse { diffuse: base * (1.0 - s), specular: base * s, roughness }
 }
 
+/// A camera ray's surface hit with its material evaluated.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct SurfaceHit {
+    pub surface: SurfacePoint,
+    pub response: SurfaceResponse,
+}
+
+/// What a camera ray sees (see [`Tracer::primary`]).
+pub(crate) enum Primary {
+    /// Nothing: black.
+    Miss,
+    /// A rect light emitter in front of any surface: its radiance.
+    Emitter(GroupRgb),
+    /// A surface, to be shaded.
+    Surface(SurfaceHit),
+}
+
 /// Everything a ray needs: the scene, its BVH, its lights and the sample counts.
 pub(crate) struct Tracer<'a> {
     pub scene: &'a Scene,
@@ -207,30 +224,68 @@ impl Tracer<'_> {
         sampler: &mut Sampler,
     ) -> GroupRgb {
         let hit = self.accel.closest_hit(origin, dir, f32::INFINITY);
-        let tmax = hit.map_or(f32::INFINITY, |h| h.t);
+        let hit = hit.map(|h| (h.t, self.accel.surface(&h, origin, dir)));
+        match self.primary(origin, dir, hit) {
+            Primary::Miss => [Vec3::ZERO; 2],
+            Primary::Emitter(l) => l,
+            Primary::Surface(s) => {
+                let e = if s.response.diffuse != Vec3::ZERO {
+                    Some(self.irradiance(&s.surface, strata, rect_strata, sampler))
+                } else {
+                    None
+                };
+                self.surface_radiance(dir, &s, e, sampler)
+            }
+        }
+    }
+
+    /// What a camera ray along `dir` sees, given its closest hit (distance and surface): an
+    /// emitter in front of the hit, nothing, or a surface with its material evaluated.
+    pub fn primary(&self, origin: Vec3, dir: Vec3, hit: Option<(f32, SurfacePoint)>) -> Primary {
+        let tmax = hit.map_or(f32::INFINITY, |h| h.0);
         if let Some((_, group, rgb)) = self.lights.emitter_seen(origin, dir, tmax) {
             let mut l = [Vec3::ZERO; 2];
             l[group] = rgb;
-            return l;
+            return Primary::Emitter(l);
         }
-        let Some(hit) = hit else { return [Vec3::ZERO; 2] };
-        let surface = self.accel.surface(&hit, origin, dir);
+        let Some((_, surface)) = hit else { return Primary::Miss };
         let response = surface_response(self.scene, &surface);
+        Primary::Surface(SurfaceHit { surface, response })
+    }
+
+    /// Irradiance per group (lux per channel) the diffuse part of a camera-ray hit receives:
+    /// direct light (rect samples placed by `rect_strata`) plus the bounce estimate (`strata`).
+    pub fn irradiance(
+        &self,
+        surface: &SurfacePoint,
+        strata: Strata,
+        rect_strata: Strata,
+        sampler: &mut Sampler,
+    ) -> GroupRgb {
+        let (p, ng, ns) = (surface.position, surface.geometric_normal, surface.shading_normal);
+        let direct = self.lights.direct(
+            self.accel,
+            p,
+            ng,
+            ns,
+            self.settings.rect_samples_per_axis.pow(2),
+            rect_strata,
+            self.settings.light_cull,
+            sampler,
+        );
+        let indirect = self.indirect_irradiance(p, ng, ns, self.settings.indirect_rays, strata, sampler);
+        add(direct, indirect)
+    }
+
+    /// Radiance leaving a camera-ray hit towards the camera: `rho / pi * e` of the diffuse part
+    /// (`e` its [`Tracer::irradiance`], computed at this point or interpolated from neighbours;
+    /// `None` when the material has no diffuse part) plus the mirror reflection of metals.
+    pub fn surface_radiance(&self, dir: Vec3, s: &SurfaceHit, e: Option<GroupRgb>, sampler: &mut Sampler) -> GroupRgb {
+        let (response, surface) = (&s.response, &s.surface);
         let (p, ng, ns) = (surface.position, surface.geometric_normal, surface.shading_normal);
         let mut out = [Vec3::ZERO; 2];
-        if response.diffuse != Vec3::ZERO {
-            let direct = self.lights.direct(
-                self.accel,
-                p,
-                ng,
-                ns,
-                self.settings.rect_samples_per_axis.pow(2),
-                rect_strata,
-                self.settings.light_cull,
-                sampler,
-            );
-            let indirect = self.indirect_irradiance(p, ng, ns, self.settings.indirect_rays, strata, sampler);
-            out = scale(add(direct, indirect), response.diffuse * std::f32::consts::FRAC_1_PI);
+        if let Some(e) = e {
+            out = scale(e, response.diffuse * std::f32::consts::FRAC_1_PI);
         }
         if self.settings.specular && response.specular != Vec3::ZERO {
             let mirror = dir - 2.0 * dir.dot(ns) * ns;
