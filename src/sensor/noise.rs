@@ -607,7 +607,7 @@ const ZIG_LAYERS: usize = 256;
 /// unnormalised density `exp(-x^2 / 2)`: G. Marsaglia and W. W. Tsang, "The ziggurat method for
 /// generating random variables", Journal of Statistical Software 5(8), 2000 (section 4's
 /// 256-box constants `r = 3.6541528853610088`, `v = 0.00492867323399`).
-const ZIG_R: f64 = 3.654_152_885_361_008_8;
+const ZIG_R: f64 = 3.654_152_885_361_009;
 const ZIG_V: f64 = 0.004_928_673_233_99;
 
 /// The ziggurat's layer edges `x[i]` (x[0] the base layer's pseudo-width `v / f(r)`, x[1] = r,
