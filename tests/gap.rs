@@ -243,7 +243,9 @@ fn minimal_descriptor_without_stacks() {
     let block = |light, n: usize| gap::Block { light, exposure_s: 0.01, group: 0, frames: vec![Vec::new(); n] };
     let mut blocks: Vec<gap::Block> = (1..=4).map(|i| block(gap::Light::Bright(2000.0 * f64::from(i)), 2)).collect();
     blocks.push(block(gap::Light::Dark, 2));
-    let layout = gap::Acquisition { width: 16, height: 12, bits: 12, blocks, gains_db: vec![0.0] };
+    // 64x48: with 16x12 (192 pixels a pair) the fitted K spread by +-30 % over simulation seeds
+    // (0.61 to 0.97 of the truth at seeds 1288, 7, 8, 9), wider than the 15 % asserted below.
+    let layout = gap::Acquisition { width: 64, height: 48, bits: 12, blocks, gains_db: vec![0.0] };
     let desc = testdata::write_dataset(&dir, &case.model, &layout, 9).unwrap();
     let r = gap::run(&desc, None, &GapOptions::default()).unwrap();
     assert!(r.measured.dark_stack.is_none() && r.measured.bright_stack.is_none());
