@@ -5,7 +5,20 @@
 //! ```text
 //! cargo run --release --example gap_profile -- DESCRIPTOR
 //! ```
+//!
+//! Each simulation line also gives the process CPU time (user + sys, all threads) it took, so
+//! figures taken on a loaded machine compare.
 use std::time::Instant;
+
+/// CPU time of this process so far, seconds (user + sys from /proc/self/stat, in clock ticks of
+/// 1/100 s, the Linux USER_HZ); 0 where /proc is missing.
+fn cpu_s() -> f64 {
+    let Ok(stat) = std::fs::read_to_string("/proc/self/stat") else { return 0.0 };
+    // Fields after the parenthesised command name: state is field 3, utime 14, stime 15.
+    let rest = stat.rsplit_once(')').map_or("", |(_, r)| r);
+    let f: Vec<f64> = rest.split_whitespace().skip(11).take(2).filter_map(|v| v.parse().ok()).collect();
+    f.iter().sum::<f64>() / 100.0
+}
 
 use scene_gen::gap::{self, GapOptions, simulate_acquisition, stats};
 
@@ -26,9 +39,9 @@ fn main() {
     let t0 = Instant::now();
     let _m = stats::compute(&measured, &t);
     println!("compute(measured) {:.3}s", t0.elapsed().as_secs_f64());
-    let t0 = Instant::now();
+    let (t0, c0) = (Instant::now(), cpu_s());
     let sim = simulate_acquisition(&model, &measured, 1288, None);
-    println!("simulate (start model) {:.3}s", t0.elapsed().as_secs_f64());
+    println!("simulate (start model) {:.3}s wall, {:.2}s CPU", t0.elapsed().as_secs_f64(), cpu_s() - c0);
     let t0 = Instant::now();
     let _s = stats::compute(&sim, &t);
     println!("compute(sim) {:.3}s", t0.elapsed().as_secs_f64());
@@ -52,7 +65,7 @@ fn main() {
     e.periodic_pattern.wave_x_freq_y_cycles_per_px = 0.2;
     e.periodic_pattern.wave_y_freq_x_cycles_per_px = 0.1;
     e.periodic_pattern.freq_y_cycles_per_px = 0.05;
-    let t0 = Instant::now();
+    let (t0, c0) = (Instant::now(), cpu_s());
     let _ = simulate_acquisition(&full, &measured, 1288, None);
-    println!("simulate (dsnu, prnu, diagonal waves) {:.3}s", t0.elapsed().as_secs_f64());
+    println!("simulate (dsnu, prnu, diagonal waves) {:.3}s wall, {:.2}s CPU", t0.elapsed().as_secs_f64(), cpu_s() - c0);
 }

@@ -36,6 +36,21 @@ pub const CANDIDATES: [&str; 11] = [
 /// every true effect there dropped the chi-square by 60 or more, so a factor 2 costs no hit.
 pub const PENALTY_FACTOR: f64 = 2.0;
 
+/// Factor on the BIC penalty of an effect whose evidence is a tail count (`hot_pixels`): its
+/// statistics are Poisson counts scored by their likelihood deviance
+/// ([`stats::count_deviance`]), whose variance is the model's own expectation, not estimated
+/// from the data, so the plain BIC `k ln n` applies. Multiplicity over pixels is in the
+/// threshold ([`stats::tail_sigmas`], [`stats::DARK_TAIL_FALSE_ALARM`]: a set without hot
+/// pixels puts a pixel above it with probability below 0.1 %).
+pub const COUNT_PENALTY_FACTOR: f64 = 1.0;
+
+/// The BIC penalty `effect` must beat at `ln n` (see [`PENALTY_FACTOR`], [`COUNT_PENALTY_FACTOR`]).
+#[must_use]
+pub fn bic_penalty(effect: &str, ln_n: f64) -> f64 {
+    let factor = if effect == "hot_pixels" { COUNT_PENALTY_FACTOR } else { PENALTY_FACTOR };
+    factor * param_count(effect) as f64 * ln_n
+}
+
 /// Number of fitted parameters of an effect (the BIC's k).
 #[must_use]
 pub fn param_count(effect: &str) -> usize {
@@ -357,6 +372,36 @@ pub fn params(effect: &str, model: &GapModel) -> serde_json::Value {
     v
 }
 
+/// Replaces the simulated dark stack's tail counts by their expectation under `model`: the
+/// Gaussian core's `n Q(T / sd)` plus the hot pixels', `n f E_u[Q((T - u) / sd)]` with the excess
+/// `u` uniform in `0..X` DN (`sd` the simulated tail residual's robust sd). One simulated
+/// realisation of a count of a few pixels is itself Poisson noise; the measured count is scored
+/// against the model's expected count instead (the entry's `count_floor`, the simulated value 0,
+/// see [`stats::count_deviance`]), so the hot-pixel evidence is its exact Poisson deviance.
+fn expect_dark_tails(s: &mut Stats, model: &GapModel, t: &Thresholds) {
+    let Some(ds) = s.dark_stack else { return };
+    let sd = ds.tail_sd_dn.max(1e-9);
+    let n = (s.width * s.height) as f64;
+    let hp = model.sensor.effects.hot_pixels;
+    let gain = crate::sensor::noise::gain_factor(s.gains_db.first().copied().unwrap_or(0.0));
+    let x_dn = hp.max_excess_e_per_s * model.sensor.system_gain_dn_per_e * gain * ds.exposure_s;
+    let f = if hp.enabled && x_dn > 0.0 { hp.fraction } else { 0.0 };
+    let expect = |thr: f64| -> f64 {
+        // Midpoint rule over the excess, 256 nodes.
+        let hot = (0..256).map(|j| stats::normal_tail((thr - (f64::from(j) + 0.5) / 256.0 * x_dn) / sd)).sum::<f64>();
+        n * ((1.0 - f) * stats::normal_tail(thr / sd) + f * hot / 256.0)
+    };
+    for e in &mut s.entries {
+        let thr = match e.label.as_str() {
+            "dark stack pixels above T" => t.dark_dn,
+            "dark stack pixels above 3T" => 3.0 * t.dark_dn,
+            _ => continue,
+        };
+        e.value = 0.0;
+        e.count_floor = Some(expect(thr));
+    }
+}
+
 /// Evaluates models against one measured acquisition.
 struct Evaluator {
     /// The acquisition layout (frame counts, exposures, photons, gain groups); its gains are
@@ -401,6 +446,7 @@ impl Evaluator {
         let sim = simulate_acquisition(model, &self.layout, self.seed, None);
         let mut s = stats::compute(&sim, &self.t);
         drop(sim);
+        expect_dark_tails(&mut s, model, &self.t);
         if self.reduced {
             s = s.reduced();
         }
@@ -567,6 +613,7 @@ impl Screen {
         }
         let sim = simulate_rows(model, &ev.layout, ev.seed, None, self.rows);
         let mut s = stats::compute(&sim, &ev.t);
+        expect_dark_tails(&mut s, model, &ev.t);
         s.thresholds = Some(ev.t);
         let c = stats::gap(&self.m, &s).chi2_total;
         let mut cache = self.cache.borrow_mut();
@@ -658,7 +705,7 @@ pub fn search(
             for &i in &order[SCREEN_KEEP..] {
                 full[i] = false;
                 let (effect, _) = &proposals[i];
-                let penalty = PENALTY_FACTOR * param_count(effect) as f64 * ln_n;
+                let penalty = bic_penalty(effect, ln_n);
                 trials.push(Trial {
                     round,
                     effect: (*effect).to_string(),
@@ -676,7 +723,7 @@ pub fn search(
             }
             let (ts, tg) = ev.eval(&trial);
             let drop = g.chi2_total - tg.chi2_total;
-            let penalty = PENALTY_FACTOR * param_count(effect) as f64 * ln_n;
+            let penalty = bic_penalty(effect, ln_n);
             trials.push(Trial {
                 round,
                 effect: effect.to_string(),
@@ -745,7 +792,7 @@ pub fn search(
             gap_after: g.gap,
             evidence: format!(
                 "chi-square drop {drop:.1} > BIC penalty {:.1} ({} parameter(s), ln {} statistics); {}",
-                PENALTY_FACTOR * param_count(effect) as f64 * ln_n,
+                bic_penalty(effect, ln_n),
                 param_count(effect),
                 g.n,
                 if improved.is_empty() { "no family improved by more than 1".to_string() } else { improved.join(", ") }

@@ -59,8 +59,9 @@ fn full_json(result: &GapResult, source: &str) -> serde_json::Value {
             json!({
                 "family": e.family, "label": e.label, "x": e.x,
                 "measured": e.value, "sigma_measured": e.var.sqrt(),
-                "simulated_initial": result.initial_stats.entries.get(i).map(|s| s.value),
-                "simulated_final": result.final_stats.entries.get(i).map(|s| s.value),
+                // A tail count's model value is its expectation, the count plus its floor.
+                "simulated_initial": result.initial_stats.entries.get(i).map(|s| s.value + s.count_floor.unwrap_or(0.0)),
+                "simulated_final": result.final_stats.entries.get(i).map(|s| s.value + s.count_floor.unwrap_or(0.0)),
                 "z_initial": result.gap_initial.residuals.get(i),
                 "z_final": result.gap_final.residuals.get(i),
             })

@@ -16,8 +16,9 @@
 //! * `spectrum`: peak-to-median ratios of the two largest local maxima of the dark stack's 2-D
 //!   periodogram on a 2x oversampled grid: periodic patterns, separable or diagonal.
 //! * `tails`: pixels of the dark residual above `T` and `3 T` (hot pixels) and of the bright
-//!   residual below `-T` (dead / low pixels), `T` six robust standard deviations of the
-//!   measured residual; Poisson variances.
+//!   residual below `-T` (dead / low pixels), in robust standard deviations of the measured
+//!   residual: for the dark tail a Bonferroni bound at a 0.1 % false-alarm rate per set
+//!   ([`tail_sigmas`]), for the bright tail six; compared by their Poisson deviance.
 //!
 //! Behaviour near saturation is in `linearity` and `photon_transfer` (mean plateau, variance
 //! collapse at the top steps).
@@ -322,9 +323,43 @@ fn var_of_var(v: f64, m4: f64, rv: f64, n: f64, h: f64) -> f64 {
     (m4 - v * v).max(2.0 * v * v) / n + 2.0 * rv * rv / h
 }
 
-/// Thresholds from the measured acquisition: six robust standard deviations of the tail
-/// residual of each averaged stack (for the dark stack with its periodic waves removed, see
-/// [`remove_waves`]).
+/// False-alarm rate of the hot-pixel tail per acquisition, `alpha`: the probability that a set
+/// without hot pixels, whose averaged dark residual is Gaussian, puts any pixel above the dark
+/// threshold `T` (a Bonferroni bound over the pixels, see [`tail_sigmas`]). It is also the
+/// Gaussian core's expected count above `T` (the count floor of [`count_deviance`]), so one
+/// pixel above `T` scores a deviance of `2 (ln(1 / alpha) - 1) = 11.8`, just enough to beat the
+/// 2-parameter hot-pixel penalty `2 ln n` (9.5 at n = 115 statistics, see
+/// [`super::fit::bic_penalty`]) up to n = 365: a clean set names `hot_pixels` with probability
+/// about `alpha`, and a single pixel far beyond the Gaussian core is evidence enough. At
+/// `alpha = 0.01` (4.9 sigmas at 160x120) one pixel would score only 7.2.
+pub const DARK_TAIL_FALSE_ALARM: f64 = 0.001;
+
+/// Sigmas of the bright (dead-pixel) tail threshold: a fixed six (no effect is fitted to it).
+pub const BRIGHT_TAIL_SIGMAS: f64 = 6.0;
+
+/// Inverse of [`normal_tail`]: the `z` with `Q(z) = p` (bisection; `0 < p < 1/2`).
+#[must_use]
+pub fn normal_tail_inverse(p: f64) -> f64 {
+    let (mut lo, mut hi) = (0.0f64, 40.0f64);
+    for _ in 0..100 {
+        let mid = 0.5 * (lo + hi);
+        if normal_tail(mid) > p { lo = mid } else { hi = mid }
+    }
+    0.5 * (lo + hi)
+}
+
+/// Sigmas of the dark tail threshold for `pixels` pixels: `Q^-1(alpha / pixels)` with `alpha`
+/// [`DARK_TAIL_FALSE_ALARM`], so by the union bound a Gaussian residual exceeds it anywhere with
+/// probability below `alpha` (5.3 sigmas at 160x120, 5.8 at 640x480).
+#[must_use]
+pub fn tail_sigmas(pixels: usize) -> f64 {
+    normal_tail_inverse(DARK_TAIL_FALSE_ALARM / pixels.max(1) as f64)
+}
+
+/// Thresholds from the measured acquisition, in robust standard deviations of the tail residual
+/// of each averaged stack: for the dark stack, with its periodic waves removed (see
+/// [`remove_waves`]), [`tail_sigmas`] of the image size; for the bright stack
+/// [`BRIGHT_TAIL_SIGMAS`].
 #[must_use]
 pub fn thresholds(acq: &Acquisition) -> Thresholds {
     let (w, h) = (acq.width, acq.height);
@@ -332,10 +367,13 @@ pub fn thresholds(acq: &Acquisition) -> Thresholds {
     for b in acq.blocks.iter().filter(|b| b.frames.len() > 2) {
         let img = stack_mean(&b.frames);
         let mut r = residual(&img, w, h);
-        if b.light == Light::Dark {
+        let sigmas = if b.light == Light::Dark {
             r = remove_waves(&r, w, h, &waves(&img, w, h).1);
-        }
-        let v = 6.0 * robust_sd(&r).max(0.5);
+            tail_sigmas(w * h)
+        } else {
+            BRIGHT_TAIL_SIGMAS
+        };
+        let v = sigmas * robust_sd(&r).max(0.5);
         match b.light {
             Light::Dark if t.dark_dn.is_infinite() => t.dark_dn = v,
             Light::Bright(_) if t.bright_dn.is_infinite() => t.bright_dn = v,
@@ -406,7 +444,7 @@ fn wave_fit(r: &[f64], w: usize, fx: f64, fy: f64) -> (f64, f64, f64) {
 /// `r` minus its least-squares plane waves at `waves`, each frequency first refined on a grid of
 /// 1/8 of the periodogram's 2x-oversampled spacing (the residual of a wave fitted 1/4 bin off
 /// would still be a broad pattern, not noise). A sinusoid that stands above the noise is a
-/// pattern, not a tail: removing it makes the tail threshold six sigmas of the pixel noise.
+/// pattern, not a tail: removing it puts the tail threshold in sigmas of the pixel noise.
 #[must_use]
 pub fn remove_waves(r: &[f64], w: usize, h: usize, waves: &[(f64, f64)]) -> Vec<f64> {
     let mut out = r.to_vec();

@@ -438,13 +438,13 @@ impl SensorModel {
         };
         let dsnu_e = if e.dsnu.enabled {
             let s = e.dsnu.std_e;
-            map("sensor/dsnu", &|r| (s * normal(r)) as f32)
+            map("sensor/dsnu", &|r| (s * standard_normal(r)) as f32)
         } else {
             Vec::new()
         };
         let prnu = if e.prnu.enabled {
             let s = e.prnu.std_fraction;
-            map("sensor/prnu", &|r| (s * normal(r)).max(-1.0) as f32)
+            map("sensor/prnu", &|r| (s * standard_normal(r)).max(-1.0) as f32)
         } else {
             Vec::new()
         };
@@ -460,7 +460,7 @@ impl SensorModel {
         };
         let column_dn = if e.row_column_noise.enabled && e.row_column_noise.column_std_dn > 0.0 {
             let mut r = rng::stream(seed, "sensor/column");
-            (0..width).map(|_| (e.row_column_noise.column_std_dn * normal(&mut r)) as f32).collect()
+            (0..width).map(|_| (e.row_column_noise.column_std_dn * standard_normal(&mut r)) as f32).collect()
         } else {
             Vec::new()
         };
@@ -500,9 +500,11 @@ impl SensorModel {
         frame_seed: u64,
     ) -> Vec<u16> {
         let max = self.max_dn();
+        // Already whole numbers when quantization is on: no second rounding.
+        let rounded = self.effects.quantization.enabled;
         self.simulate_dn_with(pattern, photons, exposure_s, gain_db, frame_seed)
             .into_iter()
-            .map(|y| y.round().clamp(0.0, max) as u16)
+            .map(|y| if rounded { y } else { y.round() }.clamp(0.0, max) as u16)
             .collect()
     }
 
@@ -533,12 +535,33 @@ impl SensorModel {
         let row_sd = if e.row_column_noise.enabled { e.row_column_noise.row_std_dn } else { 0.0 };
         let pp = e.periodic_pattern;
         let two_pi = std::f64::consts::TAU;
+        // The waves from per-column and per-row tables, `sin(a + b) = sin a cos b + cos a sin b`
+        // (w + h sin_cos calls per frame instead of two sines per pixel; the same tables for
+        // every row window, so a row's bytes do not depend on how many rows are simulated).
+        let separable = pp.wave_x_freq_y_cycles_per_px == 0.0 && pp.wave_y_freq_x_cycles_per_px == 0.0;
+        let col_waves: Vec<[(f64, f64); 2]> = if pp.enabled {
+            (0..width)
+                .map(|c| {
+                    let cf = c as f64;
+                    [
+                        (two_pi * pp.freq_x_cycles_per_px * cf).sin_cos(),
+                        (two_pi * pp.wave_y_freq_x_cycles_per_px * cf).sin_cos(),
+                    ]
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
         let mut out = vec![0f64; width * height];
         out.par_chunks_mut(width.max(1)).enumerate().for_each(|(r, row_out)| {
             let mut rng = rng::substream(frame_seed, "sensor/temporal", r as u64);
-            let row_offset = if row_sd > 0.0 { row_sd * normal(&mut rng) } else { 0.0 };
-            let periodic_y =
-                if pp.enabled { pp.amplitude_dn * (two_pi * pp.freq_y_cycles_per_px * r as f64).sin() } else { 0.0 };
+            let row_offset = if row_sd > 0.0 { row_sd * standard_normal(&mut rng) } else { 0.0 };
+            let rf = r as f64;
+            let row_waves = [
+                (two_pi * pp.wave_x_freq_y_cycles_per_px * rf).sin_cos(),
+                (two_pi * pp.freq_y_cycles_per_px * rf).sin_cos(),
+            ];
+            let periodic_y = if pp.enabled { pp.amplitude_dn * row_waves[1].0 } else { 0.0 };
             for (c, y_out) in row_out.iter_mut().enumerate() {
                 let i = r * width + c;
                 let sens = pattern.prnu.get(i).map_or(1.0, |&p| 1.0 + f64::from(p));
@@ -547,23 +570,22 @@ impl SensorModel {
                 let mut electrons = poisson(&mut rng, mu_e) + poisson(&mut rng, dark_mean + hot);
                 electrons += pattern.dsnu_e.get(i).map_or(0.0, |&d| f64::from(d));
                 if pre_sd > 0.0 {
-                    electrons += pre_sd * normal(&mut rng);
+                    electrons += pre_sd * standard_normal(&mut rng);
                 }
                 electrons = electrons.min(full_well);
                 let mut y = self.nonlinear(k * electrons);
                 if post_sd > 0.0 {
-                    y += post_sd * normal(&mut rng);
+                    y += post_sd * standard_normal(&mut rng);
                 }
                 y += row_offset + black;
                 y += pattern.column_dn.get(c).map_or(0.0, |&v| f64::from(v));
                 if pp.enabled {
-                    let (cf, rf) = (c as f64, r as f64);
-                    if pp.wave_x_freq_y_cycles_per_px == 0.0 && pp.wave_y_freq_x_cycles_per_px == 0.0 {
-                        y += periodic_y + pp.amplitude_dn * (two_pi * pp.freq_x_cycles_per_px * cf).sin();
+                    let [(sx, cx), (sy, cy)] = col_waves[c];
+                    if separable {
+                        y += periodic_y + pp.amplitude_dn * sx;
                     } else {
-                        let wx = pp.freq_x_cycles_per_px * cf + pp.wave_x_freq_y_cycles_per_px * rf;
-                        let wy = pp.wave_y_freq_x_cycles_per_px * cf + pp.freq_y_cycles_per_px * rf;
-                        y += pp.amplitude_dn * ((two_pi * wx).sin() + (two_pi * wy).sin());
+                        let [(sxr, cxr), (syr, cyr)] = row_waves;
+                        y += pp.amplitude_dn * ((sx * cxr + cx * sxr) + (sy * cyr + cy * syr));
                     }
                 }
                 if e.quantization.enabled {
@@ -579,7 +601,77 @@ impl SensorModel {
     }
 }
 
-/// A standard normal draw (Box-Muller, one output per two uniforms: simple and reproducible).
+/// Layers of the ziggurat of [`standard_normal`].
+const ZIG_LAYERS: usize = 256;
+/// Right edge of the base layer and area of every layer of a 256-layer ziggurat for the
+/// unnormalised density `exp(-x^2 / 2)`: G. Marsaglia and W. W. Tsang, "The ziggurat method for
+/// generating random variables", Journal of Statistical Software 5(8), 2000 (section 4's
+/// 256-box constants `r = 3.6541528853610088`, `v = 0.00492867323399`).
+const ZIG_R: f64 = 3.654_152_885_361_009;
+const ZIG_V: f64 = 0.004_928_673_233_99;
+
+/// The ziggurat's layer edges `x[i]` (x[0] the base layer's pseudo-width `v / f(r)`, x[1] = r,
+/// decreasing to x[256] = 0) and densities `f[i] = exp(-x[i]^2 / 2)`, built once.
+struct Ziggurat {
+    x: [f64; ZIG_LAYERS + 1],
+    f: [f64; ZIG_LAYERS + 1],
+}
+
+fn ziggurat() -> &'static Ziggurat {
+    static TABLE: std::sync::OnceLock<Ziggurat> = std::sync::OnceLock::new();
+    TABLE.get_or_init(|| {
+        let pdf = |x: f64| (-0.5 * x * x).exp();
+        let mut x = [0f64; ZIG_LAYERS + 1];
+        x[0] = ZIG_V / pdf(ZIG_R);
+        x[1] = ZIG_R;
+        for i in 1..ZIG_LAYERS - 1 {
+            // Each layer has area v: x[i] (f(x[i+1]) - f(x[i])) = v.
+            x[i + 1] = (-2.0 * (ZIG_V / x[i] + pdf(x[i])).ln()).sqrt();
+        }
+        x[ZIG_LAYERS] = 0.0;
+        let mut f = [0f64; ZIG_LAYERS + 1];
+        for (fi, xi) in f.iter_mut().zip(&x) {
+            *fi = pdf(*xi);
+        }
+        Ziggurat { x, f }
+    })
+}
+
+/// A standard normal draw by the ziggurat method (Marsaglia and Tsang 2000, see [`ZIG_R`]):
+/// exact in distribution; about 99 % of draws cost one 64-bit word, a table look-up and a
+/// compare (no logarithm, no trigonometry). The noise model's draws use it; [`normal`] stays the
+/// Box-Muller sampler for the callers that rely on its stream.
+pub fn standard_normal<R: Rng + ?Sized>(rng: &mut R) -> f64 {
+    let z = ziggurat();
+    loop {
+        let bits: u64 = rng.random();
+        let i = (bits & 0xff) as usize;
+        // 53 high bits: a uniform in (-1, 1) (the centre of each of 2^53 cells, never 0 or +-1).
+        let u = 2.0 * (((bits >> 11) as f64 + 0.5) * (1.0 / (1u64 << 53) as f64)) - 1.0;
+        let x = u * z.x[i];
+        if x.abs() < z.x[i + 1] {
+            return x;
+        }
+        if i == 0 {
+            // The tail beyond r (Marsaglia 1964): x = -ln(u1) / r, y = -ln(u2), accept 2y > x^2.
+            loop {
+                let a = -(1.0 - rng.random::<f64>()).ln() / ZIG_R;
+                let b = -(1.0 - rng.random::<f64>()).ln();
+                if 2.0 * b > a * a {
+                    return if u < 0.0 { -(ZIG_R + a) } else { ZIG_R + a };
+                }
+            }
+        }
+        // The wedge between layers i and i + 1.
+        let y = z.f[i] + (z.f[i + 1] - z.f[i]) * rng.random::<f64>();
+        if y < (-0.5 * x * x).exp() {
+            return x;
+        }
+    }
+}
+
+/// A standard normal draw (Box-Muller, one output per two uniforms: simple and reproducible;
+/// the detection code and tests draw their synthetic noise with it).
 pub fn normal<R: Rng + ?Sized>(rng: &mut R) -> f64 {
     let u1 = 1.0 - rng.random::<f64>(); // (0, 1]
     let u2 = rng.random::<f64>();
@@ -606,7 +698,6 @@ pub fn poisson<R: Rng + ?Sized>(rng: &mut R, lambda: f64) -> f64 {
         return k;
     }
     let slam = lambda.sqrt();
-    let loglam = lambda.ln();
     let b = 0.931 + 2.53 * slam;
     let a = -0.059 + 0.02483 * b;
     let inv_alpha = 1.1239 + 1.1328 / (b - 3.4);
@@ -622,7 +713,9 @@ pub fn poisson<R: Rng + ?Sized>(rng: &mut R, lambda: f64) -> f64 {
         if k < 0.0 || (us < 0.013 && v > us) {
             continue;
         }
-        if v.ln() + inv_alpha.ln() - (a / (us * us) + b).ln() <= -lambda + k * loglam - ln_factorial(k) {
+        // The squeeze above accepts about 86 % of draws; the logarithms are needed only here
+        // (Hoermann's `ln v + ln(1/alpha) - ln(a/us^2 + b)` as one logarithm).
+        if (v * inv_alpha / (a / (us * us) + b)).ln() <= -lambda + k * lambda.ln() - ln_factorial(k) {
             return k;
         }
     }
@@ -706,7 +799,7 @@ impl AffineNoise {
             for (i, v) in row.iter_mut().enumerate() {
                 let x = f64::from(*v);
                 let sd = self.variance(x, i % 3, g).max(0.0).sqrt();
-                *v = (x + sd * normal(&mut rng)).round().clamp(0.0, 255.0) as u8;
+                *v = (x + sd * standard_normal(&mut rng)).round().clamp(0.0, 255.0) as u8;
             }
         });
         out
@@ -731,6 +824,53 @@ mod tests {
     }
 
     #[test]
+    fn poisson_matches_its_probability_mass() {
+        // PTRS region (lambda >= 10) and the switch: Pearson chi-square of the counts of every
+        // k within 4 sd (the two tails pooled) against the exact mass exp(k ln l - l - ln k!).
+        for &lambda in &[10.0f64, 37.5, 900.0] {
+            let mut rng = rng::stream(4, "test");
+            let n = 200_000;
+            let sd: f64 = lambda.sqrt();
+            let (lo, hi) = ((lambda - 4.0 * sd).floor().max(0.0) as usize, (lambda + 4.0 * sd).ceil() as usize);
+            let mut counts = vec![0usize; hi - lo + 3];
+            for _ in 0..n {
+                let k = poisson(&mut rng, lambda) as usize;
+                counts[if k < lo {
+                    0
+                } else if k > hi {
+                    hi - lo + 2
+                } else {
+                    k - lo + 1
+                }] += 1;
+            }
+            let pmf = |k: usize| (k as f64 * lambda.ln() - lambda - ln_factorial(k as f64)).exp();
+            let inner: Vec<f64> = (lo..=hi).map(pmf).collect();
+            let below: f64 = (0..lo).map(pmf).sum();
+            let above = 1.0 - below - inner.iter().sum::<f64>();
+            let mut chi2 = 0.0;
+            let mut bins = 0;
+            for (i, &c) in counts.iter().enumerate() {
+                let p = if i == 0 {
+                    below
+                } else if i == counts.len() - 1 {
+                    above
+                } else {
+                    inner[i - 1]
+                };
+                let e = n as f64 * p;
+                if e < 5.0 {
+                    continue;
+                }
+                chi2 += (c as f64 - e).powi(2) / e;
+                bins += 1;
+            }
+            // Mean bins - 1, sd sqrt(2 (bins - 1)): 5 sd of slack.
+            let dof = f64::from(bins - 1);
+            assert!(chi2 < dof + 5.0 * (2.0 * dof).sqrt(), "lambda {lambda}: chi-square {chi2} over {bins} bins");
+        }
+    }
+
+    #[test]
     fn normal_has_unit_variance() {
         let mut rng = rng::stream(2, "test");
         let n = 100_000;
@@ -738,6 +878,47 @@ mod tests {
         let mean = d.iter().sum::<f64>() / n as f64;
         let var = d.iter().map(|x| x * x).sum::<f64>() / n as f64;
         assert!(mean.abs() < 0.02 && (var - 1.0).abs() < 0.02, "mean {mean} var {var}");
+    }
+
+    #[test]
+    fn ziggurat_layers_close_at_the_top() {
+        let z = ziggurat();
+        // The last layer's area v must reach the density's peak: f(x255) + v / x255 = 1.
+        let top = z.f[ZIG_LAYERS - 1] + ZIG_V / z.x[ZIG_LAYERS - 1];
+        assert!((top - 1.0).abs() < 1e-9, "top {top}");
+        assert!(z.x.windows(2).skip(1).all(|p| p[0] > p[1]), "edges must decrease");
+    }
+
+    #[test]
+    fn standard_normal_matches_the_distribution() {
+        let mut rng = rng::stream(3, "test");
+        let n = 400_000;
+        let d: Vec<f64> = (0..n).map(|_| standard_normal(&mut rng)).collect();
+        let nf = n as f64;
+        let mean = d.iter().sum::<f64>() / nf;
+        let var = d.iter().map(|x| x * x).sum::<f64>() / nf;
+        let kurt = d.iter().map(|x| x.powi(4)).sum::<f64>() / nf;
+        assert!(mean.abs() < 0.01 && (var - 1.0).abs() < 0.01 && (kurt - 3.0).abs() < 0.06, "{mean} {var} {kurt}");
+        // Frequencies in bins of 0.25 sigma out to 4 sigma, and the tails beyond (the ziggurat's
+        // base-layer tail starts at 3.65): Pearson chi-square against the exact bin masses.
+        let cdf = |x: f64| 1.0 - crate::gap::stats::normal_tail(x);
+        let edges: Vec<f64> = (-16..=16).map(|i| f64::from(i) * 0.25).collect();
+        let mut counts = vec![0usize; edges.len() + 1];
+        for x in &d {
+            counts[edges.partition_point(|e| e <= x)] += 1;
+        }
+        let mut chi2 = 0.0;
+        for (i, &c) in counts.iter().enumerate() {
+            let lo = if i == 0 { 0.0 } else { cdf(edges[i - 1]) };
+            let hi = if i == edges.len() { 1.0 } else { cdf(edges[i]) };
+            let e = nf * (hi - lo);
+            chi2 += (c as f64 - e).powi(2) / e;
+        }
+        // 33 degrees of freedom: the 99.9 % point is about 63.9.
+        assert!(chi2 < 63.9, "chi-square {chi2} over {} bins", counts.len());
+        let beyond = d.iter().filter(|x| x.abs() > 3.7).count() as f64;
+        let expect = nf * 2.0 * crate::gap::stats::normal_tail(3.7);
+        assert!((beyond - expect).abs() < 5.0 * expect.sqrt(), "beyond 3.7: {beyond}, expected {expect}");
     }
 
     #[test]
