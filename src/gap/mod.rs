@@ -36,8 +36,9 @@
 //! Gaussian core explains with probability ~1e-7 over the whole crop; its deviance, ~11, beats
 //! the 2-parameter penalty of 9.5.
 //!
-//! Cost: nearly all of a run is simulating the acquisition (about 87 % of one evaluation at
-//! 640x480: every pixel of every frame draws Poisson and Gaussian noise), about 150 times. The
+//! Cost: most of a run is simulating the acquisition (every pixel of every frame draws Poisson
+//! and Gaussian noise: a ziggurat normal and PTRS Poisson in [`crate::sensor::noise`]), about
+//! 150 times. The
 //! statistics use FFTs ([`stats::periodogram_2d`]) and separable wave tables, the search keeps
 //! its last evaluations ([`fit`]: an unchanged model is not simulated again), and on frames of
 //! 240 rows or more the candidates of a round are screened on the top quarter of the rows
