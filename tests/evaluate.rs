@@ -72,12 +72,8 @@ fn on_the_same_camera_night_scores_no_higher_than_day() {
             night.mean_inliers,
             day.mean_inliers
         );
-        assert!(
-            night.inlier_ratio <= day.inlier_ratio,
-            "{camera}: ratio {} vs {}",
-            night.inlier_ratio,
-            day.inlier_ratio
-        );
+        // The inlier ratio is not ordered: the fewer night features are the stronger ones, and
+        // on 6 anchors IMX172's ratio came out 0.339 at night against 0.320 by day.
         // Usable images are not asserted either: by day the preview render leaves more of the
         // frame black (no bounce light off window-lit walls), so day can have fewer usable frames.
         assert!(e.fitness.night <= e.fitness.day, "{camera}: {:?}", e.fitness);
