@@ -229,35 +229,6 @@ fn frame_pair(setup: &Setup, renderer: &Renderer<'_>, w: u32, h: u32) -> BoxResu
     Ok((scale_s, render_s, capture_s, process_cpu_s() - cpu0, frame_hash(&frame)))
 }
 
-/// Speckle of a frame's day luminance: the mean over pixels of `|Y - m| / m`, `m` the median of
-/// the 5x5 neighbourhood, where `m > 0`; and how many pixels have `m = 0` (most of their
-/// neighbours black, the mark of a noisy estimate in a lit room). Edges and texture add a floor
-/// that no sampling change removes; the figure is for comparing settings on one view.
-fn speckle(frame: &scene_gen::render::Frame, w: u32, h: u32) -> (f64, usize) {
-    let y: Vec<f32> = scene_gen::render::Frame::luminance_nit(&frame.day_nit);
-    let (mut sum, mut n, mut zero) = (0.0f64, 0usize, 0usize);
-    let mut window = Vec::with_capacity(25);
-    for py in 2..h.saturating_sub(2) {
-        for px in 2..w.saturating_sub(2) {
-            window.clear();
-            for dy in 0..5 {
-                for dx in 0..5 {
-                    window.push(y[((py + dy - 2) * w + px + dx - 2) as usize]);
-                }
-            }
-            window.sort_by(f32::total_cmp);
-            let m = window[12];
-            if m > 0.0 {
-                sum += f64::from(((y[(py * w + px) as usize] - m) / m).abs());
-                n += 1;
-            } else {
-                zero += 1;
-            }
-        }
-    }
-    (sum / n.max(1) as f64, zero)
-}
-
 /// Error of radiance `test` against `reference`, per light group, over the luminance `Y` of
 /// each pixel: (relative mean absolute error `sum |dY| / sum Y`, the same over the means of
 /// 8 x 8 pixel blocks, where per-pixel sampling noise mostly averages out and what is left is
@@ -433,7 +404,7 @@ fn run_case(setup: &Setup, args: &Args, case: &str) -> BoxResult<()> {
             let settings = RenderSettings { light_cull: args.cull, ..RenderSettings::preview() };
             let preview = Renderer::new(&setup.scene, settings);
             let (times, frame) = timed(|| pool.install(|| preview.render(&camera)));
-            let (speckle, zero_median) = speckle(&frame?, args.width, args.height);
+            let (speckle, zero_median) = frame?.day_speckle();
             (times, 0, serde_json::json!({ "cull": args.cull, "speckle": speckle, "zero_median_px": zero_median }))
         }
         "decoupled" => {

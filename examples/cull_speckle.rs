@@ -39,30 +39,11 @@ fn process_cpu_s() -> f64 {
 }
 
 /// (speckle, pixels whose 5 x 5 median is 0, mean luminance) of a frame's day radiance.
-fn measure(frame: &Frame, w: u32, h: u32) -> (f64, usize, f64) {
+fn measure(frame: &Frame) -> (f64, usize, f64) {
     let y = Frame::luminance_nit(&frame.day_nit);
     let mean = y.iter().map(|&v| f64::from(v)).sum::<f64>() / y.len().max(1) as f64;
-    let (mut sum, mut n, mut zero) = (0.0f64, 0usize, 0usize);
-    let mut window = Vec::with_capacity(25);
-    for py in 2..h.saturating_sub(2) {
-        for px in 2..w.saturating_sub(2) {
-            window.clear();
-            for dy in 0..5 {
-                for dx in 0..5 {
-                    window.push(y[((py + dy - 2) * w + px + dx - 2) as usize]);
-                }
-            }
-            window.sort_by(f32::total_cmp);
-            let m = window[12];
-            if m > 0.0 {
-                sum += f64::from(((y[(py * w + px) as usize] - m) / m).abs());
-                n += 1;
-            } else {
-                zero += 1;
-            }
-        }
-    }
-    (sum / n.max(1) as f64, zero, mean)
+    let (speckle, zero) = frame.day_speckle();
+    (speckle, zero, mean)
 }
 
 fn list<T: std::str::FromStr>(text: &str) -> BoxResult<Vec<T>>
@@ -107,7 +88,7 @@ fn main() -> BoxResult<()> {
             let cpu0 = process_cpu_s();
             let frame = pool.install(|| renderer.render(&camera))?;
             let cpu_s = process_cpu_s() - cpu0;
-            let (s, z, m) = measure(&frame, w, h);
+            let (s, z, m) = measure(&frame);
             println!(
                 "{}",
                 serde_json::json!({"cull": cull, "pose": pose, "speckle": s, "zero_median_px": z,
