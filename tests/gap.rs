@@ -370,19 +370,18 @@ fn cli_refuses_malformed_csv_with_its_line() {
     let bad = dir.join("bad.csv");
     std::fs::write(&bad, "exposure_s,gain_db,photons,mean_dn,temporal_var_dn2\n0.01,0,0,10,4\n0.01,0,1000,x,9\n")
         .unwrap();
-    let o = bin().arg("gap").arg(&bad).arg("--out").arg(&out).output().unwrap();
-    assert_eq!(o.status.code(), Some(2));
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert!(err.contains("bad.csv:3") && err.contains("mean_dn"), "{err}");
-    assert!(!out.exists());
+    let refused_with = |csv: &Path, place: &str, field: &str| {
+        let o = bin().arg("gap").arg(csv).arg("--out").arg(&out).output().unwrap();
+        assert_eq!(o.status.code(), Some(2));
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(err.contains(place) && err.contains(field), "{err}");
+        assert!(!out.exists());
+    };
+    refused_with(&bad, "bad.csv:3", "mean_dn");
     let lux = dir.join("lux.csv");
     std::fs::write(&lux, "exposure_s,gain_db,illuminance_lux,mean_dn,temporal_var_dn2\n0.01,0,0,10,4\n0.01,0,5,90,9\n")
         .unwrap();
-    let o = bin().arg("gap").arg(&lux).arg("--out").arg(&out).output().unwrap();
-    assert_eq!(o.status.code(), Some(2));
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert!(err.contains("lux.csv:2") && err.contains("photons"), "{err}");
-    assert!(!out.exists());
+    refused_with(&lux, "lux.csv:2", "photons");
     let (_, desc) = write_case(4, 0, &dir.join("data"));
     let o = bin().arg("gap").arg(&desc).arg(&bad).arg("--out").arg(&out).output().unwrap();
     assert_eq!(o.status.code(), Some(2));

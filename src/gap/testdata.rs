@@ -14,26 +14,18 @@ use std::path::{Path, PathBuf};
 
 use rand::Rng as _;
 
+use super::fit::CANDIDATES;
 use super::{Acquisition, Block, GapModel, IlluminationFalloff, Light, Optics, simulate_acquisition};
 use crate::rng;
 use crate::sensor::SensorModel;
 use crate::sensor::noise::{self, Effects};
 
-/// Effects a hidden case may switch on: every effect the workflow can name, so a test can
-/// catch both a missed effect and one it never tries.
-/// (`read_noise_split` only in [`random_multigain_case`]: one gain cannot show it.)
-pub const HIDDEN: [&str; 10] = [
-    "black_level",
-    "dark_current",
-    "saturation",
-    "nonlinearity",
-    "dsnu",
-    "prnu",
-    "hot_pixels",
-    "row_column_noise",
-    "periodic_pattern",
-    "illumination_falloff",
-];
+/// Effects a hidden case may switch on: every effect the workflow can try ([`CANDIDATES`]), so a
+/// test can catch both a missed effect and one it never tries, less `read_noise_split`, which one
+/// gain cannot show (only [`random_multigain_case`] hides it).
+pub fn single_gain_hidden() -> Vec<&'static str> {
+    CANDIDATES.into_iter().filter(|e| *e != "read_noise_split").collect()
+}
 
 const WIDTH: usize = 64;
 const HEIGHT: usize = 48;
@@ -57,14 +49,15 @@ pub fn random_case(seed: u64, n_effects: usize) -> HiddenCase {
     let k = r.random_range(0.08..0.25);
     let read = r.random_range(6.0..20.0);
     let read_dn = k * read;
+    let candidates = single_gain_hidden();
     let mut hidden: Vec<&'static str> = Vec::new();
     while hidden.len() < n_effects.min(2) {
-        let e = HIDDEN[r.random_range(0..HIDDEN.len())];
+        let e = candidates[r.random_range(0..candidates.len())];
         if !hidden.contains(&e) {
             hidden.push(e);
         }
     }
-    hidden.sort_by_key(|e| HIDDEN.iter().position(|h| h == e));
+    hidden.sort_by_key(|e| candidates.iter().position(|h| h == e));
     let max = f64::from((1u32 << BITS) - 1);
     let mut e = Effects { quantization: noise::Quantization { enabled: true }, ..Effects::default() };
     let mut optics = Optics::default();
@@ -153,7 +146,7 @@ pub fn layout(model: &GapModel) -> Acquisition {
 /// keep the dark signal unclipped; without it the dark frames at 12 dB clip at 0 DN, where mean
 /// and variance of a pair are strongly correlated and the chi-square counts one fluctuation
 /// twice), plus `read_noise_split` (post-gain fraction 0.3..0.8 of the read-noise variance) and
-/// `n_other` (0..=1) further effects of [`HIDDEN`]; `n_other` None: no split and nothing else.
+/// `n_other` (0..=1) further effects of [`single_gain_hidden`]; `n_other` None: no split and nothing else.
 /// Every effect switched on is in `hidden`.
 #[must_use]
 pub fn random_multigain_case(seed: u64, n_other: Option<usize>) -> HiddenCase {
