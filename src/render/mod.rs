@@ -569,13 +569,33 @@ impl<'a> Renderer<'a> {
 
     /// One pixel's labels (depth, ids, normal) from the ray through its centre; black radiance.
     fn label_pixel(&self, camera: &Camera, basis: (Vec3, Vec3, Vec3), x: u32, y: u32) -> PixelOut {
+        let (dir, hit) = self.centre_hit(camera, basis, x, y);
+        self.labels(dir, basis, hit.as_ref())
+    }
+
+    /// The ray through the centre of pixel (x, y): its direction and what it hits (distance,
+    /// surface).
+    fn centre_hit(
+        &self,
+        camera: &Camera,
+        basis: (Vec3, Vec3, Vec3),
+        x: u32,
+        y: u32,
+    ) -> (Vec3, Option<(f32, SurfacePoint)>) {
         let origin = camera.position;
+        let dir = camera.ray_direction_in(basis, x as f32 + 0.5, y as f32 + 0.5);
+        let hit =
+            self.accel.closest_hit(origin, dir, f32::INFINITY).map(|h| (h.t, self.accel.surface(&h, origin, dir)));
+        (dir, hit)
+    }
+
+    /// The labels (depth along the optical axis, ids, normal) of a centre ray's hit; black
+    /// radiance.
+    fn labels(&self, dir: Vec3, basis: (Vec3, Vec3, Vec3), hit: Option<&(f32, SurfacePoint)>) -> PixelOut {
         let mut out = PixelOut { depth_m: f32::INFINITY, ..PixelOut::default() };
-        let centre = camera.ray_direction_in(basis, x as f32 + 0.5, y as f32 + 0.5);
-        if let Some(hit) = self.accel.closest_hit(origin, centre, f32::INFINITY) {
-            let surface = self.accel.surface(&hit, origin, centre);
+        if let Some((t, surface)) = hit {
             let label = self.accel.label(surface.node);
-            out.depth_m = hit.t * centre.dot(basis.0);
+            out.depth_m = t * dir.dot(basis.0);
             out.instance_id = label.instance_id;
             out.class_id = label.class_id;
             out.normal = surface.shading_normal;
@@ -596,17 +616,8 @@ impl<'a> Renderer<'a> {
     ) -> (PixelOut, Option<Guide>) {
         let tracer = self.tracer();
         let origin = camera.position;
-        let dir = camera.ray_direction_in(basis, x as f32 + 0.5, y as f32 + 0.5);
-        let hit =
-            self.accel.closest_hit(origin, dir, f32::INFINITY).map(|h| (h.t, self.accel.surface(&h, origin, dir)));
-        let mut out = PixelOut { depth_m: f32::INFINITY, ..PixelOut::default() };
-        if let Some((t, surface)) = &hit {
-            let label = self.accel.label(surface.node);
-            out.depth_m = t * dir.dot(basis.0);
-            out.instance_id = label.instance_id;
-            out.class_id = label.class_id;
-            out.normal = surface.shading_normal;
-        }
+        let (dir, hit) = self.centre_hit(camera, basis, x, y);
+        let mut out = self.labels(dir, basis, hit.as_ref());
         let key = u64::from(y) * u64::from(camera.width_px) + u64::from(x);
         let mut sampler = Sampler::new(self.settings.seed, "render/pixel", key);
         let rotation = sampler.uniform();
