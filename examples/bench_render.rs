@@ -7,6 +7,10 @@
 //!     [--camera-out cam.json] [--depth-out depth.f32]          # one case, one JSON line
 //! ```
 //!
+//! The ray batches are traced in 8 x 8 pixel packets (`Accel::closest_hits`,
+//! `Accel::occluded_packet`), as the renderer traces them; `--single` traces them one ray at a
+//! time (`Accel::closest_hit`, `Accel::occluded`) instead, for the ratio between the two.
+//!
 //! Without `--case` it prints, for 640x480 and 1936x1216 on rayon pools of 1 and 2 threads, the
 //! million rays per second of primary rays (closest hit through every pixel centre) and shadow
 //! rays (any hit, from every primary hit to the night ceiling light nearest the camera), then
@@ -22,6 +26,7 @@
 //! * `pair`: the day + night pair at `--res` (light scaling measured once, outside the time);
 //! * `speckle`: a `preview` day frame with light culling threshold `--cull` (default 0.1) and
 //!   its speckle (see [`speckle`]): how noisy the culling roulette leaves a one-sample frame;
+//! * `eval`: a frame with the evaluator's settings (`evaluate::eval_render_settings`);
 //! * `decoupled`: a `preview` frame (culling `--cull`, `--rect` x `--rect` rect samples) at full
 //!   shading rate and with [`ShadingRate::Decoupled`] at `--stride` (default 2), each timed
 //!   once, and the error of the decoupled frame against the full-rate one (see [`shading_error`]).
@@ -44,6 +49,7 @@ use scene_gen::evaluate::scenario_light_scales;
 use scene_gen::generate::generate;
 use scene_gen::library::Library;
 use scene_gen::radiometry::capture;
+use scene_gen::render::packet::{PACKET_RAYS, RayPacket};
 use scene_gen::render::{Camera, Frame, RenderSettings, Renderer, ShadingRate};
 use scene_gen::scene::{Light, LightGroup, LightKind, Scene};
 use scene_gen::sensor::Catalog;
@@ -154,38 +160,103 @@ fn pixel_centre_directions(camera: &Camera) -> Vec<Vec3> {
         .collect()
 }
 
+/// How the ray batches are traced: 8 x 8 pixel packets ([`RayPacket`], what the renderer does)
+/// or one ray at a time (`--single`, for the ratio between the two).
+#[derive(Clone, Copy, PartialEq)]
+enum Traversal {
+    Packet,
+    Single,
+}
+
+/// Side of the square pixel tile whose rays form one packet (`PACKET_RAYS` = 64).
+const TILE: usize = 8;
+
+/// Pixel indices of the tiles of one band of `TILE` rows starting at row `y0`, tile by tile.
+fn band_tiles(width: usize, height: usize, y0: usize) -> impl Iterator<Item = Vec<usize>> {
+    (0..width.div_ceil(TILE)).map(move |tx| {
+        (y0..(y0 + TILE).min(height))
+            .flat_map(|y| (tx * TILE..(tx * TILE + TILE).min(width)).map(move |x| y * width + x))
+            .collect()
+    })
+}
+
 /// Ray distance of every pixel-centre ray (+inf for a miss), on the current pool.
-fn primary_pass(renderer: &Renderer<'_>, origin: Vec3, directions: &[Vec3]) -> Vec<f32> {
+fn primary_pass(renderer: &Renderer<'_>, camera: &Camera, directions: &[Vec3], traversal: Traversal) -> Vec<f32> {
     let accel = renderer.accel();
-    directions
-        .par_chunks(1024)
-        .flat_map_iter(|c| {
-            c.iter().map(|d| accel.closest_hit(origin, *d, f32::INFINITY).map_or(f32::INFINITY, |h| h.t))
+    let origin = camera.position;
+    let (w, h) = (camera.width_px as usize, camera.height_px as usize);
+    if traversal == Traversal::Single {
+        return directions
+            .par_chunks(1024)
+            .flat_map_iter(|c| {
+                c.iter().map(|d| accel.closest_hit(origin, *d, f32::INFINITY).map_or(f32::INFINITY, |h| h.t))
+            })
+            .collect();
+    }
+    let mut t = vec![f32::INFINITY; directions.len()];
+    t.par_chunks_mut(w * TILE).enumerate().for_each(|(band, out)| {
+        let mut packet = RayPacket::new();
+        let mut hits = [None; PACKET_RAYS];
+        for tile in band_tiles(w, h, band * TILE) {
+            packet.clear();
+            for &i in &tile {
+                packet.push(origin, directions[i], f32::INFINITY);
+            }
+            accel.closest_hits(&packet, &mut hits);
+            for (k, &i) in tile.iter().enumerate() {
+                out[i - band * TILE * w] = hits[k].map_or(f32::INFINITY, |h| h.t);
+            }
+        }
+    });
+    t
+}
+
+/// A shadow ray: origin, unit direction, length.
+type ShadowRay = (Vec3, Vec3, f32);
+
+/// The shadow rays from every pixel whose centre ray hit (at distance `t`) to `light`, grouped
+/// by 8 x 8 pixel tile. They start a little towards the light, as the shader's do.
+fn shadow_rays(camera: &Camera, t: &[f32], light: Vec3) -> Vec<Vec<ShadowRay>> {
+    let directions = pixel_centre_directions(camera);
+    let (w, h) = (camera.width_px as usize, camera.height_px as usize);
+    (0..h.div_ceil(TILE))
+        .flat_map(|band| band_tiles(w, h, band * TILE))
+        .map(|tile| {
+            tile.into_iter()
+                .filter(|&i| t[i].is_finite())
+                .map(|i| {
+                    let to = light - (camera.position + directions[i] * t[i]);
+                    let dist = to.length();
+                    let dir = to / dist;
+                    (light - to + dir * 1e-3, dir, dist - 2e-3)
+                })
+                .collect()
         })
         .collect()
 }
 
-/// Number of the `points` from which `light` is blocked, on the current pool.
-fn shadow_pass(renderer: &Renderer<'_>, points: &[Vec3], light: Vec3) -> usize {
+/// Number of the `tiles`' shadow rays that are blocked, on the current pool.
+fn shadow_pass(renderer: &Renderer<'_>, tiles: &[Vec<ShadowRay>], traversal: Traversal) -> usize {
     let accel = renderer.accel();
-    points
-        .par_chunks(1024)
-        .map(|c| {
-            c.iter()
-                .filter(|p| {
-                    let to = light - **p;
-                    let dist = to.length();
-                    // Start a little towards the light, as the shader does.
-                    let dir = to / dist;
-                    accel.occluded(**p + dir * 1e-3, dir, dist - 2e-3)
+    tiles
+        .par_chunks(32)
+        .map(|chunk| {
+            let mut packet = RayPacket::new();
+            chunk
+                .iter()
+                .map(|rays| match traversal {
+                    Traversal::Single => rays.iter().filter(|(o, d, tmax)| accel.occluded(*o, *d, *tmax)).count(),
+                    Traversal::Packet => {
+                        packet.clear();
+                        for &(o, d, tmax) in rays {
+                            packet.push(o, d, tmax);
+                        }
+                        accel.occluded_packet(&packet).count_ones() as usize
+                    }
                 })
-                .count()
+                .sum::<usize>()
         })
         .sum()
-}
-
-fn hit_points(origin: Vec3, directions: &[Vec3], t: &[f32]) -> Vec<Vec3> {
-    directions.iter().zip(t).filter(|(_, t)| t.is_finite()).map(|(d, t)| origin + *d * *t).collect()
 }
 
 /// FNV-1a of every buffer of a frame (radiance, depth, ids, normals, as little-endian bytes):
@@ -270,6 +341,7 @@ struct Args {
     cull: f32,
     rect: u32,
     stride: u32,
+    traversal: Traversal,
 }
 
 fn parse_args() -> BoxResult<Args> {
@@ -284,6 +356,7 @@ fn parse_args() -> BoxResult<Args> {
         cull: 0.1,
         rect: 1,
         stride: 2,
+        traversal: Traversal::Packet,
     };
     let mut it = std::env::args().skip(1);
     while let Some(flag) = it.next() {
@@ -302,6 +375,7 @@ fn parse_args() -> BoxResult<Args> {
             "--cull" => args.cull = value()?.parse()?,
             "--rect" => args.rect = value()?.parse()?,
             "--stride" => args.stride = value()?.parse()?,
+            "--single" => args.traversal = Traversal::Single,
             _ => return Err(format!("unknown argument {flag}").into()),
         }
     }
@@ -346,22 +420,22 @@ fn run_case(setup: &Setup, args: &Args, case: &str) -> BoxResult<()> {
         )?;
     }
     let directions = pixel_centre_directions(&camera);
-    let origin = camera.position;
-    let t = primary_pass(&renderer, origin, &directions);
+    let traversal = args.traversal;
+    let t = primary_pass(&renderer, &camera, &directions, Traversal::Packet);
     if let Some(path) = &args.depth_out {
         std::fs::write(path, t.iter().flat_map(|v| v.to_le_bytes()).collect::<Vec<u8>>())?;
     }
     let (times, rays, extra) = match case {
         "primary" => {
-            let (times, _) =
-                timed(|| pool.install(|| std::hint::black_box(primary_pass(&renderer, origin, &directions))));
+            let (times, _) = timed(|| {
+                pool.install(|| std::hint::black_box(primary_pass(&renderer, &camera, &directions, traversal)))
+            });
             (times, directions.len(), serde_json::json!({}))
         }
         "shadow" => {
-            let points = hit_points(origin, &directions, &t);
-            let light = setup.light_position();
-            let (times, blocked) = timed(|| pool.install(|| shadow_pass(&renderer, &points, light)));
-            (times, points.len(), serde_json::json!({ "blocked": blocked }))
+            let tiles = shadow_rays(&camera, &t, setup.light_position());
+            let (times, blocked) = timed(|| pool.install(|| shadow_pass(&renderer, &tiles, traversal)));
+            (times, tiles.iter().map(Vec::len).sum(), serde_json::json!({ "blocked": blocked }))
         }
         "direct" => {
             let axis = f64::from(args.spp).sqrt().round() as u32;
@@ -404,8 +478,21 @@ fn run_case(setup: &Setup, args: &Args, case: &str) -> BoxResult<()> {
             let settings = RenderSettings { light_cull: args.cull, ..RenderSettings::preview() };
             let preview = Renderer::new(&setup.scene, settings);
             let (times, frame) = timed(|| pool.install(|| preview.render(&camera)));
-            let (speckle, zero_median) = frame?.day_speckle();
-            (times, 0, serde_json::json!({ "cull": args.cull, "speckle": speckle, "zero_median_px": zero_median }))
+            let frame = frame?;
+            let (speckle, zero_median) = frame.day_speckle();
+            let hash = frame_hash(&frame);
+            (
+                times,
+                0,
+                serde_json::json!({
+                    "cull": args.cull, "speckle": speckle, "zero_median_px": zero_median, "frame_fnv": hash,
+                }),
+            )
+        }
+        "eval" => {
+            let eval = Renderer::new(&setup.scene, scene_gen::evaluate::eval_render_settings());
+            let (times, frame) = timed(|| pool.install(|| eval.render(&camera)));
+            (times, 0, serde_json::json!({ "frame_fnv": frame_hash(&frame?) }))
         }
         "decoupled" => {
             let full =
@@ -431,18 +518,22 @@ fn run_case(setup: &Setup, args: &Args, case: &str) -> BoxResult<()> {
                     "cull": args.cull, "rect": args.rect, "stride": args.stride,
                     "full_s": full_s, "full_cpu_s": full_cpu_s, "decoupled_s": dec_s, "decoupled_cpu_s": dec_cpu_s,
                     "labels_identical": reference.depth_m == frame.depth_m && reference.instance_id == frame.instance_id,
+                    "frame_fnv": frame_hash(&frame), "full_frame_fnv": frame_hash(&reference),
                     "day_error": err(day), "night_error": err(night),
                 }),
             )
         }
         _ => {
-            return Err(format!("--case {case}: expected primary, shadow, direct, pair, speckle or decoupled").into());
+            return Err(
+                format!("--case {case}: expected primary, shadow, direct, pair, speckle, eval or decoupled").into()
+            );
         }
     };
     let b = best(&times);
     let mut out = serde_json::json!({
         "renderer": "scene-gen",
         "case": case,
+        "traversal": if args.traversal == Traversal::Packet { "packet" } else { "single" },
         "width": args.width,
         "height": args.height,
         "threads": args.threads,
@@ -479,6 +570,7 @@ fn main() -> BoxResult<()> {
         setup.pose.position
     );
     let light = setup.light_position();
+    let traversal = args.traversal;
     println!(
         "| resolution | threads | primary Mrays/s (wall) | primary Mrays per CPU s | shadow Mrays/s (wall) | shadow Mrays per CPU s | hit fraction |"
     );
@@ -486,16 +578,18 @@ fn main() -> BoxResult<()> {
     for (w, h) in [(640u32, 480u32), (1936, 1216)] {
         let camera = setup.camera(w, h);
         let directions = pixel_centre_directions(&camera);
-        let t = primary_pass(&renderer, camera.position, &directions);
-        let points = hit_points(camera.position, &directions, &t);
+        let t = primary_pass(&renderer, &camera, &directions, Traversal::Packet);
+        let tiles = shadow_rays(&camera, &t, light);
+        let shadow_count: usize = tiles.iter().map(Vec::len).sum();
         for threads in [1, 2] {
             let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build()?;
-            let (primary, _) =
-                timed(|| pool.install(|| std::hint::black_box(primary_pass(&renderer, camera.position, &directions))));
+            let (primary, _) = timed(|| {
+                pool.install(|| std::hint::black_box(primary_pass(&renderer, &camera, &directions, traversal)))
+            });
             let primary_cpu = LAST_CPU_S.with(std::cell::Cell::get);
-            let (shadow, _) = timed(|| pool.install(|| shadow_pass(&renderer, &points, light)));
+            let (shadow, _) = timed(|| pool.install(|| shadow_pass(&renderer, &tiles, traversal)));
             let shadow_cpu = LAST_CPU_S.with(std::cell::Cell::get);
-            let (np, ns) = (directions.len() as f64, points.len() as f64);
+            let (np, ns) = (directions.len() as f64, shadow_count as f64);
             println!(
                 "| {w}x{h} | {threads} | {:.2} | {:.2} | {:.2} | {:.2} | {:.3} |",
                 np / best(&primary) / 1e6,

@@ -149,7 +149,7 @@ impl ShearedRay {
 /// -0.0 component (a camera looking straight down, the centre column) then misses every node;
 /// adding +0.0 is exact for every other value.
 #[inline]
-fn positive_zeros(v: Vec3) -> Vec3 {
+pub(super) fn positive_zeros(v: Vec3) -> Vec3 {
     v + Vec3::ZERO
 }
 
@@ -261,6 +261,16 @@ impl Accel {
     #[must_use]
     pub fn triangle_count(&self) -> usize {
         self.tris.len()
+    }
+
+    /// The BVH, `None` for a scene without opaque triangles.
+    pub(super) fn bvh(&self) -> Option<&CwBvh> {
+        self.bvh.as_ref()
+    }
+
+    /// Triangle corners in BVH primitive order (what a leaf's primitive ids index).
+    pub(super) fn triangles(&self) -> &[[Vec3A; 3]] {
+        &self.tris
     }
 
     /// The closest hit along `origin + t * direction` for `0 < t < tmax`; `direction` unit.

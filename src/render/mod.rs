@@ -4,6 +4,7 @@
 //! * [`accel`]: every opaque triangle in one obvhs BVH, with a watertight ray/triangle test.
 //! * [`camera`]: the pinhole camera from plain numbers, and [`camera::sensor_illuminance_lux`]
 //!   (scene luminance to sensor-plane illuminance; the sensor model takes it from there).
+//! * [`packet`]: coherent rays (a pixel tile, shadow rays to one light) traced together.
 //! * [`lights`]: direct illuminance from point, directional and rect lights with shadow rays.
 //! * [`shade`]: textures, materials and the one-bounce light transport estimate.
 //!
@@ -33,8 +34,10 @@
 pub mod accel;
 pub mod camera;
 pub mod lights;
+pub mod packet;
 pub mod shade;
 pub mod test_util;
+mod tile;
 
 use glam::{Vec2, Vec3};
 use rand::Rng;
@@ -47,7 +50,8 @@ pub use lights::{LightSet, luminance};
 
 use crate::scene::{LightGroup, Scene};
 use accel::SurfacePoint;
-use shade::{Primary, Tracer};
+use shade::Tracer;
+use tile::Job;
 
 /// Per-group linear RGB: index 0 is [`LightGroup::Day`], 1 is [`LightGroup::Night`].
 pub type GroupRgb = [Vec3; 2];
@@ -267,6 +271,30 @@ pub struct Frame {
 }
 
 impl Frame {
+    /// The frame of `w x h` finished pixels in row order.
+    fn from_pixels<'p>(w: u32, h: u32, pixels: impl ExactSizeIterator<Item = &'p PixelOut>) -> Frame {
+        let n = pixels.len();
+        let mut frame = Frame {
+            width: w,
+            height: h,
+            day_nit: Vec::with_capacity(n),
+            night_nit: Vec::with_capacity(n),
+            depth_m: Vec::with_capacity(n),
+            instance_id: Vec::with_capacity(n),
+            class_id: Vec::with_capacity(n),
+            normal: Vec::with_capacity(n),
+        };
+        for p in pixels {
+            frame.day_nit.push(p.radiance[0].to_array());
+            frame.night_nit.push(p.radiance[1].to_array());
+            frame.depth_m.push(p.depth_m);
+            frame.instance_id.push(p.instance_id);
+            frame.class_id.push(p.class_id);
+            frame.normal.push(p.normal.to_array());
+        }
+        frame
+    }
+
     /// Buffer index of pixel (x, y).
     #[must_use]
     pub fn index(&self, x: u32, y: u32) -> usize {
@@ -485,16 +513,23 @@ impl<'a> Renderer<'a> {
             ShadingRate::Decoupled { stride, min_width_px } if stride >= 2 && camera.width_px >= min_width_px => {
                 self.render_decoupled(camera, stride)
             }
-            _ => self.render_with(camera, |basis, x, y| self.centre_pixel(camera, basis, x, y, None).0),
+            _ => self.render_tiled(camera, Job::Shade(None)),
         }
     }
 
-    /// [`ShadingRate::Decoupled`]: the anchors first (shaded in full, rows in parallel), then
+    /// A frame of one centre ray per pixel, traced in tiles (see [`tile`]).
+    fn render_tiled(&self, camera: &Camera, job: Job<'_>) -> Result<Frame, RenderError> {
+        camera.validate()?;
+        let (w, h) = (camera.width_px, camera.height_px);
+        let pixels = self.trace_grid(camera, (w, h), |x, y| (x, y), job, |pixel, _| pixel);
+        Ok(Frame::from_pixels(w, h, pixels.iter()))
+    }
+
+    /// [`ShadingRate::Decoupled`]: the anchors first (shaded in full, in tiles of anchors), then
     /// every other pixel from its own camera ray and the anchors' irradiance.
     fn render_decoupled(&self, camera: &Camera, stride: u32) -> Result<Frame, RenderError> {
         camera.validate()?;
         let (w, h) = (camera.width_px, camera.height_px);
-        let basis = camera.basis();
         let mut grid = AnchorGrid {
             stride,
             width: w,
@@ -504,19 +539,16 @@ impl<'a> Renderer<'a> {
             pixels: Vec::new(),
             guides: Vec::new(),
         };
-        let anchors: Vec<(PixelOut, Option<Guide>)> = (0..grid.rows)
-            .into_par_iter()
-            .flat_map_iter(|cy| {
-                let grid = &grid;
-                let y = grid.coord(cy, h);
-                (0..grid.cols).map(move |cx| self.centre_pixel(camera, basis, grid.coord(cx, w), y, None))
-            })
-            .collect();
+        let anchors = self.trace_grid(
+            camera,
+            (grid.cols, grid.rows),
+            |cx, cy| (grid.coord(cx, w), grid.coord(cy, h)),
+            Job::Shade(None),
+            |pixel, guide| (pixel, guide),
+        );
         (grid.pixels, grid.guides) = anchors.into_iter().unzip();
-        self.render_with(camera, |basis, x, y| match grid.index(x, y) {
-            Some(i) => grid.pixels[i],
-            None => self.centre_pixel(camera, basis, x, y, Some(&grid)).0,
-        })
+        let pixels = self.trace_grid(camera, (w, h), |x, y| (x, y), Job::Shade(Some(&grid)), |pixel, _| pixel);
+        Ok(Frame::from_pixels(w, h, pixels.iter()))
     }
 
     /// Depth, instance and class ids and normals of `camera`'s view, exactly as [`Renderer::render`]
@@ -526,7 +558,7 @@ impl<'a> Renderer<'a> {
     /// # Errors
     /// [`RenderError::BadCamera`] for a camera that fails [`Camera::validate`].
     pub fn render_labels(&self, camera: &Camera) -> Result<Frame, RenderError> {
-        self.render_with(camera, |basis, x, y| self.label_pixel(camera, basis, x, y))
+        self.render_tiled(camera, Job::Labels)
     }
 
     /// Runs `pixel` over every pixel (rows in parallel) and gathers the frame in row order.
@@ -546,25 +578,7 @@ impl<'a> Renderer<'a> {
                 *p = pixel(basis, x as u32, y as u32);
             }
         });
-        let mut frame = Frame {
-            width: w,
-            height: h,
-            day_nit: Vec::with_capacity(n),
-            night_nit: Vec::with_capacity(n),
-            depth_m: Vec::with_capacity(n),
-            instance_id: Vec::with_capacity(n),
-            class_id: Vec::with_capacity(n),
-            normal: Vec::with_capacity(n),
-        };
-        for p in &pixels {
-            frame.day_nit.push(p.radiance[0].to_array());
-            frame.night_nit.push(p.radiance[1].to_array());
-            frame.depth_m.push(p.depth_m);
-            frame.instance_id.push(p.instance_id);
-            frame.class_id.push(p.class_id);
-            frame.normal.push(p.normal.to_array());
-        }
-        Ok(frame)
+        Ok(Frame::from_pixels(w, h, pixels.iter()))
     }
 
     /// One pixel's labels (depth, ids, normal) from the ray through its centre; black radiance.
@@ -601,52 +615,6 @@ impl<'a> Renderer<'a> {
             out.normal = surface.shading_normal;
         }
         out
-    }
-
-    /// One pixel of one camera ray (`samples_per_axis` 1): the ray through its centre gives the
-    /// labels and the radiance. With `grid`, the irradiance comes from its anchors where they
-    /// lie on the same surface. Also returns the pixel's [`Guide`] when its surface is diffuse.
-    fn centre_pixel(
-        &self,
-        camera: &Camera,
-        basis: (Vec3, Vec3, Vec3),
-        x: u32,
-        y: u32,
-        grid: Option<&AnchorGrid>,
-    ) -> (PixelOut, Option<Guide>) {
-        let tracer = self.tracer();
-        let origin = camera.position;
-        let (dir, hit) = self.centre_hit(camera, basis, x, y);
-        let mut out = self.labels(dir, basis, hit.as_ref());
-        let key = u64::from(y) * u64::from(camera.width_px) + u64::from(x);
-        let mut sampler = Sampler::new(self.settings.seed, "render/pixel", key);
-        let rotation = sampler.uniform();
-        let rect_rotation = sampler.uniform();
-        let strata = Strata { first: 0, stride: 1, total: self.settings.indirect_rays, rotation };
-        let rect_total = self.settings.rect_samples_per_axis.pow(2);
-        let rect_strata = Strata { first: 0, stride: 1, total: rect_total, rotation: rect_rotation };
-        let t = hit.map_or(f32::INFINITY, |h| h.0);
-        let mut guide = None;
-        let radiance = match tracer.primary(origin, dir, hit) {
-            Primary::Miss => [Vec3::ZERO; 2],
-            Primary::Emitter(l) => l,
-            Primary::Surface(s) => {
-                let e = (s.response.diffuse != Vec3::ZERO).then(|| {
-                    grid.and_then(|g| g.irradiance(x, y, &s.surface, out.instance_id, t))
-                        .unwrap_or_else(|| tracer.irradiance(&s.surface, strata, rect_strata, &mut sampler))
-                });
-                guide = e.map(|irradiance| Guide {
-                    position: s.surface.position,
-                    normal: s.surface.shading_normal,
-                    material: s.surface.material,
-                    instance_id: out.instance_id,
-                    irradiance,
-                });
-                tracer.surface_radiance(dir, &s, e, &mut sampler)
-            }
-        };
-        out.radiance = finite_radiance(radiance);
-        (out, guide)
     }
 
     /// One pixel: labels from the ray through its centre, radiance averaged over `n x n`

@@ -1,0 +1,467 @@
+//! Packet traversal: up to [`PACKET_RAYS`] rays walk the obvhs compressed-wide BVH together.
+//!
+//! obvhs traverses one ray at a time; a frame's camera rays, and the shadow rays from a tile of
+//! shading points to one light, are coherent: neighbouring rays visit nearly the same nodes.
+//! Walking them together decodes each visited node once for the whole packet, and most child
+//! boxes are accepted or rejected with one or two tests instead of one per ray (Wald, Boulos and
+//! Shirley, "Ray Tracing Deformable Scenes Using Dynamic Bounding Volume Hierarchies", ACM TOG
+//! 26(1), 2007, section 4):
+//!
+//! 1. the child box is tested against the first ray of the packet still in the subtree: if
+//!    it hits, the child is entered at once;
+//! 2. otherwise an interval-arithmetic bound of the whole packet (its range of origins, of
+//!    inverse directions and its largest `tmax`) rejects a box that no ray can reach;
+//! 3. otherwise the remaining rays are tested until one hits.
+//!
+//! Leaf boxes are tested against every ray, and only the rays that reach a leaf test its
+//! triangles, with the same watertight test as single rays ([`ShearedRay::intersect`]) and the
+//! same per-ray box arithmetic as obvhs' node test. A ray in a packet therefore tests a
+//! superset of the triangles it would test alone: an occlusion answer is the same, and a
+//! closest hit is the same up to which of two triangles at exactly the same distance wins.
+
+use glam::Vec3;
+use obvhs::cwbvh::node::CwBvhNode;
+
+use super::accel::{Accel, Hit, ShearedRay, positive_zeros};
+
+/// Rays per packet: an 8 x 8 pixel tile; one bit each in a `u64` mask.
+pub const PACKET_RAYS: usize = 64;
+
+/// obvhs' smallest box entry distance (`EPSILON` in its node test), kept so a packet ray
+/// enters exactly the boxes it enters alone.
+const NODE_TMIN: f32 = 0.0001;
+
+/// Relative padding of the interval bounds, so rounding in the interval products never
+/// rejects a box that a ray's own test (rounded differently) would enter.
+const INTERVAL_PAD: f32 = 1e-4;
+
+/// Up to [`PACKET_RAYS`] rays, structure of arrays.
+#[derive(Clone)]
+pub struct RayPacket {
+    len: usize,
+    origin: [Vec3; PACKET_RAYS],
+    inv_direction: [Vec3; PACKET_RAYS],
+    tmax: [f32; PACKET_RAYS],
+    sheared: [ShearedRay; PACKET_RAYS],
+}
+
+impl Default for RayPacket {
+    fn default() -> Self {
+        RayPacket {
+            len: 0,
+            origin: [Vec3::ZERO; PACKET_RAYS],
+            inv_direction: [Vec3::ZERO; PACKET_RAYS],
+            tmax: [0.0; PACKET_RAYS],
+            sheared: [ShearedRay::new(Vec3::ZERO, Vec3::Z); PACKET_RAYS],
+        }
+    }
+}
+
+impl RayPacket {
+    /// An empty packet.
+    #[must_use]
+    pub fn new() -> RayPacket {
+        RayPacket::default()
+    }
+
+    /// Number of rays in the packet.
+    #[must_use]
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// Whether the packet has no rays.
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// Whether the packet holds [`PACKET_RAYS`] rays.
+    #[must_use]
+    pub fn is_full(&self) -> bool {
+        self.len == PACKET_RAYS
+    }
+
+    /// Removes every ray.
+    pub fn clear(&mut self) {
+        self.len = 0;
+    }
+
+    /// Adds the ray `origin + t * direction`, `0 < t < tmax` (`direction` unit), and returns its
+    /// index in the packet.
+    ///
+    /// # Panics
+    /// When the packet is full.
+    pub fn push(&mut self, origin: Vec3, direction: Vec3, tmax: f32) -> usize {
+        assert!(self.len < PACKET_RAYS, "a ray packet holds at most {PACKET_RAYS} rays");
+        let i = self.len;
+        let direction = positive_zeros(direction);
+        self.origin[i] = origin;
+        self.inv_direction[i] = direction.recip();
+        self.tmax[i] = tmax;
+        self.sheared[i] = ShearedRay::new(origin, direction);
+        self.len += 1;
+        i
+    }
+
+    /// Bit mask of every ray in the packet.
+    fn all(&self) -> u64 {
+        if self.len == PACKET_RAYS { u64::MAX } else { (1u64 << self.len) - 1 }
+    }
+}
+
+/// Interval bounds of a packet for the box rejection test: per axis the range of origins and,
+/// where every ray's inverse direction is finite and of one sign, its range.
+struct PacketBounds {
+    origin_min: Vec3,
+    origin_max: Vec3,
+    inv_min: Vec3,
+    inv_max: Vec3,
+    /// Per axis: whether the inverse-direction range is usable.
+    bounded: [bool; 3],
+    tmax: f32,
+}
+
+impl PacketBounds {
+    fn new(packet: &RayPacket, rays: u64, tmax: &[f32; PACKET_RAYS]) -> PacketBounds {
+        let mut b = PacketBounds {
+            origin_min: Vec3::INFINITY,
+            origin_max: Vec3::NEG_INFINITY,
+            inv_min: Vec3::INFINITY,
+            inv_max: Vec3::NEG_INFINITY,
+            bounded: [true; 3],
+            tmax: 0.0,
+        };
+        for r in bits(rays) {
+            b.origin_min = b.origin_min.min(packet.origin[r]);
+            b.origin_max = b.origin_max.max(packet.origin[r]);
+            b.inv_min = b.inv_min.min(packet.inv_direction[r]);
+            b.inv_max = b.inv_max.max(packet.inv_direction[r]);
+            b.tmax = b.tmax.max(tmax[r]);
+        }
+        for axis in 0..3 {
+            let (lo, hi) = (b.inv_min[axis], b.inv_max[axis]);
+            b.bounded[axis] = lo.is_finite() && hi.is_finite() && (lo > 0.0 || hi < 0.0);
+        }
+        b
+    }
+
+    /// Whether no ray of the packet can enter the box `[lo, hi]` within its `tmax`.
+    fn rejects(&self, lo: Vec3, hi: Vec3) -> bool {
+        let mut enter = NODE_TMIN;
+        let mut exit = self.tmax;
+        for axis in 0..3 {
+            if !self.bounded[axis] {
+                continue;
+            }
+            let (i0, i1) = (self.inv_min[axis], self.inv_max[axis]);
+            // Distances to the two slab planes over all origins and inverse directions.
+            let near_a = (lo[axis] - self.origin_max[axis], lo[axis] - self.origin_min[axis]);
+            let far_a = (hi[axis] - self.origin_max[axis], hi[axis] - self.origin_min[axis]);
+            let products = |a: (f32, f32)| [a.0 * i0, a.0 * i1, a.1 * i0, a.1 * i1];
+            let (p_lo, p_hi) = (products(near_a), products(far_a));
+            let min4 = |p: [f32; 4]| p[0].min(p[1]).min(p[2]).min(p[3]);
+            let max4 = |p: [f32; 4]| p[0].max(p[1]).max(p[2]).max(p[3]);
+            // Entry is the nearer plane, exit the farther, whichever way the rays point.
+            let (enter_lo, exit_hi) = if i0 > 0.0 { (min4(p_lo), max4(p_hi)) } else { (min4(p_hi), max4(p_lo)) };
+            enter = enter.max(enter_lo - enter_lo.abs() * INTERVAL_PAD);
+            exit = exit.min(exit_hi + exit_hi.abs() * INTERVAL_PAD);
+        }
+        enter > exit
+    }
+}
+
+/// Indices of the set bits of `mask`, lowest first.
+fn bits(mut mask: u64) -> impl Iterator<Item = usize> {
+    std::iter::from_fn(move || {
+        (mask != 0).then(|| {
+            let i = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            i
+        })
+    })
+}
+
+/// One visited node's children in the frame of one ray: obvhs' own arithmetic (the quantised
+/// planes times the scaled inverse direction plus the scaled origin offset).
+#[inline(always)]
+fn ray_enters(node: &CwBvhNode, child: usize, packet: &RayPacket, r: usize, tmax: f32) -> Option<f32> {
+    let inv = packet.inv_direction[r];
+    let scaled_inv = node.compute_extent() * glam::Vec3A::from(inv);
+    let scaled_origin = (glam::Vec3A::from(node.p) - glam::Vec3A::from(packet.origin[r])) * glam::Vec3A::from(inv);
+    let pick = |lo: u8, hi: u8, negative: bool| if negative { (hi as f32, lo as f32) } else { (lo as f32, hi as f32) };
+    let (x0, x1) = pick(node.child_min_x[child], node.child_max_x[child], inv.x < 0.0);
+    let (y0, y1) = pick(node.child_min_y[child], node.child_max_y[child], inv.y < 0.0);
+    let (z0, z1) = pick(node.child_min_z[child], node.child_max_z[child], inv.z < 0.0);
+    let near = (x0 * scaled_inv.x + scaled_origin.x)
+        .max(y0 * scaled_inv.y + scaled_origin.y)
+        .max(z0 * scaled_inv.z + scaled_origin.z)
+        .max(NODE_TMIN);
+    let far = (x1 * scaled_inv.x + scaled_origin.x)
+        .min(y1 * scaled_inv.y + scaled_origin.y)
+        .min(z1 * scaled_inv.z + scaled_origin.z)
+        .min(tmax);
+    (near <= far).then_some(near)
+}
+
+/// A child's world box.
+fn child_box(node: &CwBvhNode, child: usize) -> (Vec3, Vec3) {
+    let b = node.child_aabb(child);
+    (b.min.into(), b.max.into())
+}
+
+/// What a packet traversal does at the triangles of a leaf.
+trait LeafVisitor {
+    /// Tests triangle `triangle` against the rays of `rays`; may shrink `tmax` and clear bits of
+    /// `active`.
+    fn visit(&mut self, accel: &Accel, triangle: usize, rays: u64, tmax: &mut [f32; PACKET_RAYS], active: &mut u64);
+}
+
+struct ClosestHits<'h> {
+    packet: &'h RayPacket,
+    hits: &'h mut [Option<Hit>],
+}
+
+impl LeafVisitor for ClosestHits<'_> {
+    #[inline(always)]
+    fn visit(&mut self, accel: &Accel, triangle: usize, rays: u64, tmax: &mut [f32; PACKET_RAYS], _: &mut u64) {
+        let tri = &accel.triangles()[triangle];
+        for r in bits(rays) {
+            if let Some((t, b1, b2)) = self.packet.sheared[r].intersect(tri, 0.0, tmax[r]) {
+                self.hits[r] = Some(Hit { t, triangle: triangle as u32, b1, b2 });
+                tmax[r] = t;
+            }
+        }
+    }
+}
+
+struct AnyHits<'h> {
+    packet: &'h RayPacket,
+}
+
+impl LeafVisitor for AnyHits<'_> {
+    #[inline(always)]
+    fn visit(&mut self, accel: &Accel, triangle: usize, rays: u64, tmax: &mut [f32; PACKET_RAYS], active: &mut u64) {
+        let tri = &accel.triangles()[triangle];
+        for r in bits(rays & *active) {
+            if self.packet.sheared[r].intersect(tri, 0.0, tmax[r]).is_some() {
+                *active &= !(1u64 << r);
+            }
+        }
+    }
+}
+
+impl Accel {
+    /// The closest hit of every ray of `packet`, into `hits[i]` for ray `i` (`None` for a miss).
+    /// The same hits as [`Accel::closest_hit`] ray by ray (see the module docs for ties).
+    ///
+    /// # Panics
+    /// When `hits` is shorter than the packet.
+    pub fn closest_hits(&self, packet: &RayPacket, hits: &mut [Option<Hit>]) {
+        let hits = &mut hits[..packet.len()];
+        hits.fill(None);
+        let mut tmax = packet.tmax;
+        let mut active = packet.all();
+        self.traverse_packet(packet, &mut tmax, &mut active, &mut ClosestHits { packet, hits });
+    }
+
+    /// Bit `i` set where ray `i` of `packet` is blocked (a shadow ray); the same answers as
+    /// [`Accel::occluded`] ray by ray.
+    #[must_use]
+    pub fn occluded_packet(&self, packet: &RayPacket) -> u64 {
+        let mut tmax = packet.tmax;
+        let all = packet.all();
+        let mut active = all;
+        self.traverse_packet(packet, &mut tmax, &mut active, &mut AnyHits { packet });
+        all & !active
+    }
+
+    /// Walks the BVH with every ray of `active`, depth first, nearer children first.
+    fn traverse_packet(
+        &self,
+        packet: &RayPacket,
+        tmax: &mut [f32; PACKET_RAYS],
+        active: &mut u64,
+        leaf: &mut impl LeafVisitor,
+    ) {
+        let Some(bvh) = self.bvh() else { return };
+        if *active == 0 || bvh.nodes.is_empty() {
+            return;
+        }
+        // (node, rays that may reach it): the mask narrows to the rays from the first one that
+        // entered the node's box, as the rays before it missed.
+        let mut stack: Vec<(u32, u64)> = Vec::with_capacity(64);
+        stack.push((0, *active));
+        let mut bounds = PacketBounds::new(packet, *active, tmax);
+        let mut stale = false;
+        while let Some((index, rays)) = stack.pop() {
+            let rays = rays & *active;
+            if rays == 0 {
+                continue;
+            }
+            if stale {
+                bounds = PacketBounds::new(packet, *active, tmax);
+                stale = false;
+            }
+            let node = &bvh.nodes[index as usize];
+            let mut inner: [(f32, u32, u64); 8] = [(0.0, 0, 0); 8];
+            let mut inner_count = 0;
+            for child in 0..8 {
+                if node.is_child_empty(child) {
+                    continue;
+                }
+                let first = rays.trailing_zeros() as usize;
+                if node.is_leaf(child) {
+                    let (lo, hi) = child_box(node, child);
+                    if bounds.rejects(lo, hi) {
+                        continue;
+                    }
+                    let mut reach = 0u64;
+                    for r in bits(rays) {
+                        if ray_enters(node, child, packet, r, tmax[r]).is_some() {
+                            reach |= 1u64 << r;
+                        }
+                    }
+                    if reach == 0 {
+                        continue;
+                    }
+                    let (start, count) = node.child_primitives(child);
+                    for triangle in start..start + count {
+                        leaf.visit(self, triangle as usize, reach, tmax, active);
+                    }
+                    stale = true;
+                    if *active == 0 {
+                        return;
+                    }
+                    continue;
+                }
+                let entered = match ray_enters(node, child, packet, first, tmax[first]) {
+                    Some(near) => Some((first, near)),
+                    None => {
+                        let (lo, hi) = child_box(node, child);
+                        if bounds.rejects(lo, hi) {
+                            None
+                        } else {
+                            bits(rays & !(1u64 << first))
+                                .find_map(|r| ray_enters(node, child, packet, r, tmax[r]).map(|near| (r, near)))
+                        }
+                    }
+                };
+                if let Some((r, near)) = entered {
+                    inner[inner_count] = (near, node.child_node_index(child), rays & !((1u64 << r) - 1));
+                    inner_count += 1;
+                }
+            }
+            // Farther children go on the stack first, so the nearest is walked next.
+            let inner = &mut inner[..inner_count];
+            inner.sort_unstable_by(|a, b| b.0.total_cmp(&a.0));
+            stack.extend(inner.iter().map(|&(_, child, mask)| (child, mask)));
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::render::test_util::{add_material, add_mesh, empty_scene, quad};
+    use crate::scene::Semantic;
+    use glam::Mat4;
+
+    /// A box room with a few blocks inside: many nodes, hits at many distances.
+    fn room() -> Accel {
+        let mut scene = empty_scene();
+        let m = add_material(&mut scene, "paint_0", [0.5; 3], 0.0, 1.0);
+        let walls = [
+            (Vec3::new(0.0, 0.0, 0.0), Vec3::X * 6.0, Vec3::Y * 5.0),
+            (Vec3::new(0.0, 0.0, 3.0), Vec3::X * 6.0, Vec3::Y * 5.0),
+            (Vec3::new(0.0, 0.0, 0.0), Vec3::X * 6.0, Vec3::Z * 3.0),
+            (Vec3::new(0.0, 5.0, 0.0), Vec3::X * 6.0, Vec3::Z * 3.0),
+            (Vec3::new(0.0, 0.0, 0.0), Vec3::Y * 5.0, Vec3::Z * 3.0),
+            (Vec3::new(6.0, 0.0, 0.0), Vec3::Y * 5.0, Vec3::Z * 3.0),
+        ];
+        for (corner, u, v) in walls {
+            add_mesh(&mut scene, quad(corner + (u + v) * 0.5, u, v, m), Mat4::IDENTITY, Semantic::Decor { room: 0 });
+        }
+        for k in 0..40 {
+            let c = Vec3::new(0.5 + (k % 8) as f32 * 0.7, 0.5 + (k / 8) as f32 * 0.9, 0.2 + (k % 5) as f32 * 0.5);
+            add_mesh(
+                &mut scene,
+                quad(c, Vec3::X * 0.3, Vec3::Y * 0.25, m),
+                Mat4::IDENTITY,
+                Semantic::Decor { room: 0 },
+            );
+            add_mesh(&mut scene, quad(c, Vec3::X * 0.3, Vec3::Z * 0.2, m), Mat4::IDENTITY, Semantic::Decor { room: 0 });
+        }
+        Accel::build(&scene)
+    }
+
+    fn directions(n: usize, spread: f32, seed: u32) -> Vec<Vec3> {
+        (0..n)
+            .map(|i| {
+                let a = (i as f32 * 0.618 + seed as f32 * 0.37).fract() - 0.5;
+                let b = (i as f32 * 0.414 + seed as f32 * 0.73).fract() - 0.5;
+                Vec3::new(1.0, a * spread, b * spread - 0.2).normalize()
+            })
+            .collect()
+    }
+
+    #[test]
+    fn packet_closest_hits_equal_single_ray_hits() {
+        let accel = room();
+        let origin = Vec3::new(0.3, 2.5, 1.4);
+        for (spread, seed) in [(0.1, 0), (1.0, 1), (4.0, 2), (40.0, 3)] {
+            let dirs = directions(PACKET_RAYS, spread, seed);
+            let mut packet = RayPacket::new();
+            for d in &dirs {
+                packet.push(origin, *d, f32::INFINITY);
+            }
+            let mut hits = [None; PACKET_RAYS];
+            accel.closest_hits(&packet, &mut hits);
+            for (i, d) in dirs.iter().enumerate() {
+                assert_eq!(hits[i], accel.closest_hit(origin, *d, f32::INFINITY), "ray {i}, spread {spread}");
+                assert!(hits[i].is_some(), "a closed room is hit everywhere");
+            }
+        }
+    }
+
+    #[test]
+    fn packet_occlusion_equals_single_ray_occlusion_for_mixed_origins_and_short_packets() {
+        let accel = room();
+        let light = Vec3::new(3.0, 2.5, 2.9);
+        for len in [1, 7, PACKET_RAYS] {
+            let mut packet = RayPacket::new();
+            let mut rays = Vec::new();
+            for i in 0..len {
+                let p =
+                    Vec3::new(0.1 + (i % 8) as f32 * 0.73, 0.1 + (i / 8) as f32 * 0.61, 0.01 + (i % 3) as f32 * 0.4);
+                let d = light - p;
+                let dist = d.length();
+                rays.push((p, d / dist, dist - 1e-3));
+                packet.push(p, d / dist, dist - 1e-3);
+            }
+            let blocked = accel.occluded_packet(&packet);
+            let expected: u64 = rays
+                .iter()
+                .enumerate()
+                .filter(|(_, (p, d, t))| accel.occluded(*p, *d, *t))
+                .map(|(i, _)| 1u64 << i)
+                .sum();
+            assert_eq!(blocked, expected, "{len} rays");
+            if len > 1 {
+                assert!(expected != 0 && expected != packet.all(), "a mix of blocked and free rays");
+            }
+        }
+    }
+
+    #[test]
+    fn an_empty_scene_and_an_empty_packet_hit_nothing() {
+        let accel = Accel::build(&empty_scene());
+        let mut packet = RayPacket::new();
+        assert_eq!(accel.occluded_packet(&packet), 0);
+        packet.push(Vec3::ZERO, Vec3::X, 10.0);
+        let mut hits = [Some(Hit { t: 1.0, triangle: 0, b1: 0.0, b2: 0.0 })];
+        accel.closest_hits(&packet, &mut hits);
+        assert_eq!(hits, [None]);
+        assert_eq!(accel.occluded_packet(&packet), 0);
+    }
+}

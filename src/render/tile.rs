@@ -1,0 +1,173 @@
+//! Frames of one camera ray per pixel, traced in 8 x 8 pixel tiles.
+//!
+//! A tile's camera rays go through the BVH as one [`RayPacket`] (coherent rays from one
+//! origin: about twice the speed of one ray at a time, docs/BENCHMARKS.md); each pixel is then
+//! shaded as [`Renderer::render_with`] shades it alone, from its own random stream, so a tiled
+//! frame is the same frame. Shadow rays stay one at a time: traced as packets per light and
+//! tile they were slower on the evaluator's frames (rect-light samples and culled lights give
+//! small, spread packets; measured in docs/BENCHMARKS.md).
+
+use glam::Vec3;
+use rayon::prelude::*;
+
+use super::packet::{PACKET_RAYS, RayPacket};
+use super::shade::{Primary, SurfaceHit};
+use super::{AnchorGrid, Camera, GroupRgb, Guide, PixelOut, Renderer, Sampler, Strata, finite_radiance};
+use crate::render::accel::Hit;
+
+/// Side of a tile, pixels: one tile's rays fill one packet.
+const TILE: u32 = 8;
+const _: () = assert!((TILE * TILE) as usize == PACKET_RAYS);
+
+/// What a tile computes at each of its pixels.
+#[derive(Clone, Copy)]
+pub(super) enum Job<'g> {
+    /// Depth, ids and normal only (black radiance).
+    Labels,
+    /// The full pixel; with a grid, the irradiance comes from its anchors where they allow.
+    Shade(Option<&'g AnchorGrid>),
+}
+
+impl Renderer<'_> {
+    /// Runs `job` at the pixels of a `cols x rows` grid (cell `(cx, cy)` is pixel `at(cx, cy)`),
+    /// tile by tile, bands of tiles in parallel; the cells, `keep(pixel, guide)`, come back
+    /// row-major. The grid is the whole frame, or the anchors of decoupled shading.
+    pub(super) fn trace_grid<T: Clone + Default + Send>(
+        &self,
+        camera: &Camera,
+        (cols, rows): (u32, u32),
+        at: impl Fn(u32, u32) -> (u32, u32) + Sync,
+        job: Job<'_>,
+        keep: impl Fn(PixelOut, Option<Guide>) -> T + Sync,
+    ) -> Vec<T> {
+        let mut cells = vec![T::default(); cols as usize * rows as usize];
+        if cells.is_empty() {
+            return cells;
+        }
+        let band_len = cols as usize * TILE as usize;
+        cells.par_chunks_mut(band_len).enumerate().for_each(|(band, out)| {
+            let mut packet = RayPacket::new();
+            let band_rows = (out.len() / cols as usize) as u32;
+            for tx in 0..cols.div_ceil(TILE) {
+                let x_end = (tx * TILE + TILE).min(cols);
+                let tile: Vec<(usize, (u32, u32))> = (0..band_rows)
+                    .flat_map(|dy| (tx * TILE..x_end).map(move |cx| (dy, cx)))
+                    .map(|(dy, cx)| {
+                        let cy = band as u32 * TILE + dy;
+                        (dy as usize * cols as usize + cx as usize, at(cx, cy))
+                    })
+                    .filter(|&(slot, (x, y))| match job {
+                        // The anchors of a decoupled frame are finished already.
+                        Job::Shade(Some(grid)) => {
+                            grid.index(x, y).map(|a| out[slot] = keep(grid.pixels[a], None)).is_none()
+                        }
+                        _ => true,
+                    })
+                    .collect();
+                self.trace_tile(camera, &tile, job, &mut packet, &mut |slot, pixel, guide| {
+                    out[slot] = keep(pixel, guide);
+                });
+            }
+        });
+        cells
+    }
+
+    /// One tile: `cells` are (slot, pixel); each finished pixel goes to `store(slot, ..)`.
+    fn trace_tile(
+        &self,
+        camera: &Camera,
+        cells: &[(usize, (u32, u32))],
+        job: Job<'_>,
+        packet: &mut RayPacket,
+        store: &mut dyn FnMut(usize, PixelOut, Option<Guide>),
+    ) {
+        let basis = camera.basis();
+        let origin = camera.position;
+        packet.clear();
+        let dirs: Vec<Vec3> =
+            cells.iter().map(|&(_, (x, y))| camera.ray_direction_in(basis, x as f32 + 0.5, y as f32 + 0.5)).collect();
+        for dir in &dirs {
+            packet.push(origin, *dir, f32::INFINITY);
+        }
+        let mut hits: [Option<Hit>; PACKET_RAYS] = [None; PACKET_RAYS];
+        self.accel.closest_hits(packet, &mut hits);
+        for (k, (&(slot, (x, y)), &dir)) in cells.iter().zip(&dirs).enumerate() {
+            let hit = hits[k].map(|h| (h.t, self.accel.surface(&h, origin, dir)));
+            let labels = self.labels(dir, basis, hit.as_ref());
+            let (pixel, guide) = match job {
+                Job::Labels => (labels, None),
+                Job::Shade(grid) => self.shade_centre(camera, (x, y), dir, hit, labels, grid),
+            };
+            store(slot, pixel, guide);
+        }
+    }
+
+    /// Shades pixel `(x, y)` whose centre ray along `dir` found `hit`: `labels` plus radiance,
+    /// and the pixel's [`Guide`] where its surface is diffuse. With `grid`, the irradiance comes
+    /// from the anchors where they lie on the same surface.
+    ///
+    /// The pixel's stream draws the strata rotations first, then the irradiance samples, then
+    /// the specular ones; the rotations are drawn only when a later draw needs them (an
+    /// interpolated pixel without a mirror draws nothing), which leaves every used number
+    /// where it was.
+    fn shade_centre(
+        &self,
+        camera: &Camera,
+        (x, y): (u32, u32),
+        dir: Vec3,
+        hit: Option<(f32, super::accel::SurfacePoint)>,
+        labels: PixelOut,
+        grid: Option<&AnchorGrid>,
+    ) -> (PixelOut, Option<Guide>) {
+        let tracer = self.tracer();
+        let t = hit.map_or(f32::INFINITY, |h| h.0);
+        let s = match tracer.primary(camera.position, dir, hit) {
+            Primary::Miss => return (labels, None),
+            Primary::Emitter(l) => return (PixelOut { radiance: finite_radiance(l), ..labels }, None),
+            Primary::Surface(s) => s,
+        };
+        let key = u64::from(y) * u64::from(camera.width_px) + u64::from(x);
+        let mut sampler = Sampler::new(self.settings.seed, "render/pixel", key);
+        let mut strata = None;
+        let e = (s.response.diffuse != Vec3::ZERO).then(|| {
+            grid.and_then(|g| g.irradiance(x, y, &s.surface, labels.instance_id, t)).unwrap_or_else(|| {
+                let (bounce, rect) = *strata.insert(self.pixel_strata(&mut sampler));
+                tracer.irradiance(&s.surface, bounce, rect, &mut sampler)
+            })
+        });
+        if strata.is_none() && self.settings.specular && s.response.specular != Vec3::ZERO {
+            self.pixel_strata(&mut sampler);
+        }
+        self.finish(labels, dir, &s, e, &mut sampler)
+    }
+
+    /// The pixel's bounce and rect-light strata, drawn first from its stream.
+    pub(super) fn pixel_strata(&self, sampler: &mut Sampler) -> (Strata, Strata) {
+        let rotation = sampler.uniform();
+        let rect_rotation = sampler.uniform();
+        let strata = Strata { first: 0, stride: 1, total: self.settings.indirect_rays, rotation };
+        let rect_total = self.settings.rect_samples_per_axis.pow(2);
+        (strata, Strata { first: 0, stride: 1, total: rect_total, rotation: rect_rotation })
+    }
+
+    /// A shaded pixel from its irradiance `e` (`None` without a diffuse part), with its
+    /// [`Guide`] where it has one.
+    pub(super) fn finish(
+        &self,
+        mut out: PixelOut,
+        dir: Vec3,
+        s: &SurfaceHit,
+        e: Option<GroupRgb>,
+        sampler: &mut Sampler,
+    ) -> (PixelOut, Option<Guide>) {
+        let guide = e.map(|irradiance| Guide {
+            position: s.surface.position,
+            normal: s.surface.shading_normal,
+            material: s.surface.material,
+            instance_id: out.instance_id,
+            irradiance,
+        });
+        out.radiance = finite_radiance(self.tracer().surface_radiance(dir, s, e, sampler));
+        (out, guide)
+    }
+}
