@@ -507,7 +507,7 @@ impl<'a> Renderer<'a> {
     /// [`RenderError::BadCamera`] for a camera that fails [`Camera::validate`].
     pub fn render(&self, camera: &Camera) -> Result<Frame, RenderError> {
         if self.settings.samples_per_axis > 1 {
-            return self.render_with(camera, |basis, x, y| self.render_pixel(camera, basis, x, y));
+            return self.render_tiled(camera, Job::Samples);
         }
         match self.settings.shading {
             ShadingRate::Decoupled { stride, min_width_px } if stride >= 2 && camera.width_px >= min_width_px => {
@@ -561,48 +561,6 @@ impl<'a> Renderer<'a> {
         self.render_tiled(camera, Job::Labels)
     }
 
-    /// Runs `pixel` over every pixel (rows in parallel) and gathers the frame in row order.
-    fn render_with(
-        &self,
-        camera: &Camera,
-        pixel: impl Fn((Vec3, Vec3, Vec3), u32, u32) -> PixelOut + Sync,
-    ) -> Result<Frame, RenderError> {
-        camera.validate()?;
-        let (w, h) = (camera.width_px, camera.height_px);
-        let basis = camera.basis();
-        let n = w as usize * h as usize;
-        // One buffer written row by row in parallel (no per-row vectors to gather).
-        let mut pixels = vec![PixelOut::default(); n];
-        pixels.par_chunks_mut(w.max(1) as usize).enumerate().for_each(|(y, row)| {
-            for (x, p) in row.iter_mut().enumerate() {
-                *p = pixel(basis, x as u32, y as u32);
-            }
-        });
-        Ok(Frame::from_pixels(w, h, pixels.iter()))
-    }
-
-    /// One pixel's labels (depth, ids, normal) from the ray through its centre; black radiance.
-    fn label_pixel(&self, camera: &Camera, basis: (Vec3, Vec3, Vec3), x: u32, y: u32) -> PixelOut {
-        let (dir, hit) = self.centre_hit(camera, basis, x, y);
-        self.labels(dir, basis, hit.as_ref())
-    }
-
-    /// The ray through the centre of pixel (x, y): its direction and what it hits (distance,
-    /// surface).
-    fn centre_hit(
-        &self,
-        camera: &Camera,
-        basis: (Vec3, Vec3, Vec3),
-        x: u32,
-        y: u32,
-    ) -> (Vec3, Option<(f32, SurfacePoint)>) {
-        let origin = camera.position;
-        let dir = camera.ray_direction_in(basis, x as f32 + 0.5, y as f32 + 0.5);
-        let hit =
-            self.accel.closest_hit(origin, dir, f32::INFINITY).map(|h| (h.t, self.accel.surface(&h, origin, dir)));
-        (dir, hit)
-    }
-
     /// The labels (depth along the optical axis, ids, normal) of a centre ray's hit; black
     /// radiance.
     fn labels(&self, dir: Vec3, basis: (Vec3, Vec3, Vec3), hit: Option<&(f32, SurfacePoint)>) -> PixelOut {
@@ -614,38 +572,6 @@ impl<'a> Renderer<'a> {
             out.class_id = label.class_id;
             out.normal = surface.shading_normal;
         }
-        out
-    }
-
-    /// One pixel: labels from the ray through its centre, radiance averaged over `n x n`
-    /// stratified jittered rays.
-    fn render_pixel(&self, camera: &Camera, basis: (Vec3, Vec3, Vec3), x: u32, y: u32) -> PixelOut {
-        let tracer = self.tracer();
-        let origin = camera.position;
-        let mut out = self.label_pixel(camera, basis, x, y);
-        let key = u64::from(y) * u64::from(camera.width_px) + u64::from(x);
-        let mut sampler = Sampler::new(self.settings.seed, "render/pixel", key);
-        let n = self.settings.samples_per_axis.max(1);
-        let rays = self.settings.indirect_rays;
-        let rect_samples = self.settings.rect_samples_per_axis.pow(2);
-        let rotation = sampler.uniform();
-        let rect_rotation = sampler.uniform();
-        let mut sum = [Vec3::ZERO; 2];
-        for j in 0..n {
-            for i in 0..n {
-                let sx = (i as f32 + sampler.uniform()) / n as f32;
-                let sy = (j as f32 + sampler.uniform()) / n as f32;
-                let dir = camera.ray_direction_in(basis, x as f32 + sx, y as f32 + sy);
-                let strata = Strata { first: j * n + i, stride: n * n, total: n * n * rays, rotation };
-                let rect_strata =
-                    Strata { first: j * n + i, stride: n * n, total: n * n * rect_samples, rotation: rect_rotation };
-                let l = tracer.camera_ray(origin, dir, strata, rect_strata, &mut sampler);
-                sum[0] += l[0];
-                sum[1] += l[1];
-            }
-        }
-        let inv = 1.0 / (n * n) as f32;
-        out.radiance = finite_radiance(sum.map(|c| c * inv));
         out
     }
 

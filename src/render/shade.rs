@@ -27,7 +27,7 @@ use std::sync::OnceLock;
 
 use glam::{Vec2, Vec3};
 
-use super::accel::{Accel, SurfacePoint};
+use super::accel::{Accel, Hit, SurfacePoint};
 use super::lights::{LightSet, luminance, ray_epsilon};
 use super::{GroupRgb, RenderSettings, Sampler, Strata};
 use crate::scene::{Material, Scene, Texture};
@@ -213,17 +213,18 @@ impl Tracer<'_> {
         scale(sum, Vec3::splat(std::f32::consts::PI / rays as f32))
     }
 
-    /// Radiance per group arriving along a camera ray; its bounce rays use `strata` and its
-    /// rect light samples `rect_strata`.
+    /// Radiance per group arriving along a camera ray whose closest hit is `hit` (traced with
+    /// others in a packet); its bounce rays use `strata` and its rect light samples
+    /// `rect_strata`.
     pub fn camera_ray(
         &self,
         origin: Vec3,
         dir: Vec3,
+        hit: Option<Hit>,
         strata: Strata,
         rect_strata: Strata,
         sampler: &mut Sampler,
     ) -> GroupRgb {
-        let hit = self.accel.closest_hit(origin, dir, f32::INFINITY);
         let hit = hit.map(|h| (h.t, self.accel.surface(&h, origin, dir)));
         match self.primary(origin, dir, hit) {
             Primary::Miss => [Vec3::ZERO; 2],

@@ -2,7 +2,7 @@
 //!
 //! A tile's camera rays go through the BVH as one [`RayPacket`] (coherent rays from one
 //! origin: about twice the speed of one ray at a time, docs/BENCHMARKS.md); each pixel is then
-//! shaded as [`Renderer::render_with`] shades it alone, from its own random stream, so a tiled
+//! shaded as it would be alone, from its own random stream, so a tiled
 //! frame is the same frame. Shadow rays stay one at a time: traced as packets per light and
 //! tile they were slower on the evaluator's frames (rect-light samples and culled lights give
 //! small, spread packets; measured in docs/BENCHMARKS.md).
@@ -24,8 +24,12 @@ const _: () = assert!((TILE * TILE) as usize == PACKET_RAYS);
 pub(super) enum Job<'g> {
     /// Depth, ids and normal only (black radiance).
     Labels,
-    /// The full pixel; with a grid, the irradiance comes from its anchors where they allow.
+    /// The full pixel from its centre ray (one camera ray per pixel); with a grid, the
+    /// irradiance comes from its anchors where they allow.
     Shade(Option<&'g AnchorGrid>),
+    /// Labels from the centre ray, radiance averaged over `n x n` stratified jittered camera
+    /// rays (`samples_per_axis` n > 1).
+    Samples,
 }
 
 impl Renderer<'_> {
@@ -91,15 +95,84 @@ impl Renderer<'_> {
         }
         let mut hits: [Option<Hit>; PACKET_RAYS] = [None; PACKET_RAYS];
         self.accel.closest_hits(packet, &mut hits);
+        let mut labels = Vec::with_capacity(cells.len());
         for (k, (&(slot, (x, y)), &dir)) in cells.iter().zip(&dirs).enumerate() {
             let hit = hits[k].map(|h| (h.t, self.accel.surface(&h, origin, dir)));
-            let labels = self.labels(dir, basis, hit.as_ref());
-            let (pixel, guide) = match job {
-                Job::Labels => (labels, None),
-                Job::Shade(grid) => self.shade_centre(camera, (x, y), dir, hit, labels, grid),
-            };
-            store(slot, pixel, guide);
+            let pixel_labels = self.labels(dir, basis, hit.as_ref());
+            match job {
+                Job::Labels => store(slot, pixel_labels, None),
+                Job::Shade(grid) => {
+                    let (pixel, guide) = self.shade_centre(camera, (x, y), dir, hit, pixel_labels, grid);
+                    store(slot, pixel, guide);
+                }
+                Job::Samples => labels.push(pixel_labels),
+            }
         }
+        if let Job::Samples = job {
+            for (&(slot, _), pixel) in cells.iter().zip(self.sample_tile(camera, cells, labels, packet)) {
+                store(slot, pixel, None);
+            }
+        }
+    }
+
+    /// [`Job::Samples`] over a tile whose centre rays gave `labels`: sample `(i, j)` of every
+    /// pixel is traced in one packet. Each pixel draws from its own stream in the order it
+    /// would alone (strata rotations, then per sample its jitter and its shading), so
+    /// interleaving the pixels changes nothing.
+    fn sample_tile(
+        &self,
+        camera: &Camera,
+        cells: &[(usize, (u32, u32))],
+        mut labels: Vec<PixelOut>,
+        packet: &mut RayPacket,
+    ) -> Vec<PixelOut> {
+        let (basis, origin) = (camera.basis(), camera.position);
+        let tracer = self.tracer();
+        let n = self.settings.samples_per_axis.max(1);
+        let bounce_total = n * n * self.settings.indirect_rays;
+        let rect_total = n * n * self.settings.rect_samples_per_axis.pow(2);
+        let mut samplers: Vec<(Sampler, f32, f32)> = cells
+            .iter()
+            .map(|&(_, (x, y))| {
+                let key = u64::from(y) * u64::from(camera.width_px) + u64::from(x);
+                let mut sampler = Sampler::new(self.settings.seed, "render/pixel", key);
+                let rotation = sampler.uniform();
+                let rect_rotation = sampler.uniform();
+                (sampler, rotation, rect_rotation)
+            })
+            .collect();
+        let mut sums = vec![[Vec3::ZERO; 2]; cells.len()];
+        let mut hits: [Option<Hit>; PACKET_RAYS] = [None; PACKET_RAYS];
+        for j in 0..n {
+            for i in 0..n {
+                packet.clear();
+                let dirs: Vec<Vec3> = cells
+                    .iter()
+                    .zip(&mut samplers)
+                    .map(|(&(_, (x, y)), (sampler, _, _))| {
+                        let sx = (i as f32 + sampler.uniform()) / n as f32;
+                        let sy = (j as f32 + sampler.uniform()) / n as f32;
+                        let dir = camera.ray_direction_in(basis, x as f32 + sx, y as f32 + sy);
+                        packet.push(origin, dir, f32::INFINITY);
+                        dir
+                    })
+                    .collect();
+                self.accel.closest_hits(packet, &mut hits);
+                for (k, (sampler, rotation, rect_rotation)) in samplers.iter_mut().enumerate() {
+                    let first = j * n + i;
+                    let strata = Strata { first, stride: n * n, total: bounce_total, rotation: *rotation };
+                    let rect = Strata { first, stride: n * n, total: rect_total, rotation: *rect_rotation };
+                    let l = tracer.camera_ray(origin, dirs[k], hits[k], strata, rect, sampler);
+                    sums[k][0] += l[0];
+                    sums[k][1] += l[1];
+                }
+            }
+        }
+        let inv = 1.0 / (n * n) as f32;
+        for (pixel, sum) in labels.iter_mut().zip(sums) {
+            pixel.radiance = finite_radiance(sum.map(|c| c * inv));
+        }
+        labels
     }
 
     /// Shades pixel `(x, y)` whose centre ray along `dir` found `hit`: `labels` plus radiance,
