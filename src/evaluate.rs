@@ -115,9 +115,12 @@ use serde::Serialize;
 use crate::camera_spec::{CameraSpec, NoiseKind, ResolvedCamera, SpecError};
 use crate::detection::coco_eval::{self, CocoCategory, CocoGroundTruth, CocoImage, DetectionRecord};
 use crate::detection::ground_truth::to_annotations;
+use crate::detection::output_noise::output_noise_by_level;
 use crate::detection::plugin::{self, PluginError, PluginRequest};
 use crate::detection::thresholds::{self, Crossing, FrameVisibility, ThresholdConfig};
-use crate::detection::{DetectabilityModel, Detector, DetectorInput, GroundTruthConfig, frame_ground_truth};
+use crate::detection::{
+    DetectabilityModel, Detector, DetectorInput, GroundTruthConfig, NoiseSource, frame_ground_truth,
+};
 use crate::house::{HouseError, WalkedHouse, embedded_library, walked_house};
 use crate::isp::{Isp, OutputRule, to_8bit};
 use crate::lights::{DAY_TARGET_LUX, NIGHT_TARGET_LUX, TARGET_PLANE_M};
@@ -624,6 +627,13 @@ fn compute(
                 )
             })
             .collect();
+        // The camera's noise at each output level per scenario, what the built-in detector
+        // divides contrast by (detection::output_noise says why not the image's own estimate).
+        let noise_tables: Vec<Option<Vec<f64>>> = isps
+            .iter()
+            .enumerate()
+            .map(|(s, isp)| output_noise_by_level(resolved, gains[s], config.output, isp))
+            .collect();
         timing.setup += secs(setup);
         let n = walk.poses.len();
         let k = (config.frames_per_scene as usize).min(n);
@@ -705,6 +715,7 @@ fn compute(
                 let gt =
                     (role == 2).then(|| frame_ground_truth(&frame, &scene, &camera, &GroundTruthConfig::default()));
                 times[2] += secs(t1);
+                let detector_seed = crate::rng::fnv1a64(format!("evaluate/detector/{seed}/{i}").as_bytes());
                 for (s, &(_, _, scale, _)) in scales.iter().enumerate() {
                     let t1 = Instant::now();
                     let radiance = if s == 0 { frame.mix(scale, 0.0) } else { frame.mix(0.0, scale) };
@@ -727,8 +738,11 @@ fn compute(
                                 height: cap.height,
                                 instance_id: &frame.instance_id,
                                 objects,
-                                noise_std_dn: None,
-                                frame_seed,
+                                noise: noise_tables[s].as_deref().map_or(NoiseSource::Measured, NoiseSource::ByLevel),
+                                // One draw seed per pose for both scenarios (common random
+                                // numbers): an object is found by day and not at night only
+                                // because its probability differs, not by the luck of the draw.
+                                frame_seed: detector_seed,
                             };
                             out.detections.push(model.detect(&input));
                         }

@@ -5,7 +5,7 @@ use glam::{Mat4, Vec3};
 use scene_gen::detection::coco_eval::{CocoCategory, CocoGroundTruth, CocoImage, evaluate};
 use scene_gen::detection::ground_truth::to_annotations;
 use scene_gen::detection::{
-    DetectabilityModel, Detector, DetectorInput, GroundTruthConfig, GtObject, frame_ground_truth,
+    DetectabilityModel, Detector, DetectorInput, GroundTruthConfig, GtObject, NoiseSource, frame_ground_truth,
 };
 use scene_gen::render::test_util::{add_material, add_mesh, box_primitive, camera, empty_scene};
 use scene_gen::render::{Camera, RenderSettings, Renderer};
@@ -156,7 +156,7 @@ fn mean_ap(side: u32, noise_dn: f64, model: &DetectabilityModel) -> (f64, f64) {
             height: s.height,
             instance_id: &s.ids,
             objects: &s.objects,
-            noise_std_dn: None,
+            noise: NoiseSource::Measured,
             frame_seed: seed,
         };
         let dets: Vec<_> = model.detect(&input).iter().map(|d| d.record(1)).collect();
@@ -216,7 +216,7 @@ fn false_positives_only_on_clutter_and_deterministic() {
         height: s.height,
         instance_id: &s.ids,
         objects: &s.objects,
-        noise_std_dn: Some(1.0),
+        noise: NoiseSource::Uniform(1.0),
         frame_seed: 9,
     };
     let dets = model.detect(&input);
@@ -313,7 +313,7 @@ fn rendered_room_end_to_end() {
                     height: 120,
                     instance_id: &frame.instance_id,
                     objects: &objects,
-                    noise_std_dn: Some(noise_dn),
+                    noise: NoiseSource::Uniform(noise_dn),
                     frame_seed: seed,
                 };
                 let dets: Vec<_> = DetectabilityModel::default().detect(&input).iter().map(|d| d.record(1)).collect();

@@ -83,10 +83,45 @@ pub struct DetectorInput<'a> {
     pub instance_id: &'a [u32],
     /// The frame's ground truth; only `counted` objects are candidates.
     pub objects: &'a [GtObject],
-    /// Temporal noise standard deviation from the noise model, DN; `None` measures it.
-    pub noise_std_dn: Option<f64>,
+    /// Where the noise the contrast is divided by comes from.
+    pub noise: NoiseSource<'a>,
     /// Seed of this frame's draws.
     pub frame_seed: u64,
+}
+
+/// The noise a [`DetectabilityModel`] divides contrast by (module docs, step 2).
+#[derive(Clone, Copy, Debug)]
+pub enum NoiseSource<'a> {
+    /// Measured on the image ([`estimate_noise_std_dn`]): the fallback for an image of unknown
+    /// origin. Texture and a renderer's sampling noise inflate it.
+    Measured,
+    /// One standard deviation for every pixel, DN.
+    Uniform(f64),
+    /// The standard deviation at each DN level: `table[round(DN)]` (the last entry beyond
+    /// it), the camera's own noise through its output rule
+    /// ([`super::output_noise::output_noise_by_level`]).
+    ByLevel(&'a [f64]),
+}
+
+impl NoiseSource<'_> {
+    /// The per-level table this source stands for on `input`'s image (one entry when the
+    /// noise is the same at every level), each entry at least [`QUANTISATION_STD_DN`].
+    #[must_use]
+    pub fn table(&self, input: &DetectorInput<'_>) -> Vec<f64> {
+        let floor = |s: f64| if s.is_finite() { s.max(QUANTISATION_STD_DN) } else { QUANTISATION_STD_DN };
+        match *self {
+            NoiseSource::Measured => vec![estimate_noise_std_dn(input.image_dn, input.width, input.height)],
+            NoiseSource::Uniform(s) => vec![floor(s)],
+            NoiseSource::ByLevel(t) if !t.is_empty() => t.iter().map(|&s| floor(s)).collect(),
+            NoiseSource::ByLevel(_) => vec![QUANTISATION_STD_DN],
+        }
+    }
+}
+
+/// The entry of a per-level noise table for a DN value.
+fn level_sigma(table: &[f64], dn: f32) -> f64 {
+    let i = if dn.is_nan() || dn <= 0.0 { 0 } else { (dn.round() as usize).min(table.len() - 1) };
+    table[i]
 }
 
 /// Anything that finds objects in a frame.
@@ -188,9 +223,14 @@ pub fn estimate_noise_std_dn(image: &[f32], width: u32, height: u32) -> f64 {
     (1.4826 * f64::from(*median) / std::f64::consts::SQRT_2).max(QUANTISATION_STD_DN)
 }
 
-/// Contrast-to-noise ratio of an object against its ring (step 2 of the module docs).
+/// Contrast-to-noise ratio of an object against its ring (step 2 of the module docs), with the
+/// noise from `sigma_by_level` ([`NoiseSource::table`]; a one-entry table is a uniform noise).
+///
+/// # Panics
+/// If `sigma_by_level` is empty.
 #[must_use]
-pub fn object_cnr(input: &DetectorInput<'_>, object: &GtObject, sigma_dn: f64) -> f64 {
+pub fn object_cnr(input: &DetectorInput<'_>, object: &GtObject, sigma_by_level: &[f64]) -> f64 {
+    assert!(!sigma_by_level.is_empty(), "a noise table needs at least one entry");
     let (w, h) = (input.width as i64, input.height as i64);
     let margin = (0.25 * f64::from(object.visible_px).sqrt()).max(2.0).round() as i64;
     let [bx, by, bw, bh] = object.bbox;
@@ -198,16 +238,20 @@ pub fn object_cnr(input: &DetectorInput<'_>, object: &GtObject, sigma_dn: f64) -
     let y0 = (by as i64 - margin).max(0);
     let x1 = ((bx + bw) as i64 + margin).min(w);
     let y1 = ((by + bh) as i64 + margin).min(h);
-    let (mut so, mut no, mut sr, mut nr) = (0.0f64, 0u64, 0.0f64, 0u64);
+    // Sums of value and of noise variance, object and ring.
+    let (mut so, mut vo, mut no, mut sr, mut vr, mut nr) = (0.0f64, 0.0f64, 0u64, 0.0f64, 0.0f64, 0u64);
     for y in y0..y1 {
         for x in x0..x1 {
             let i = (y * w + x) as usize;
-            let v = f64::from(input.image_dn[i]);
+            let v = input.image_dn[i];
+            let var = level_sigma(sigma_by_level, v).powi(2);
             if input.instance_id[i] == object.instance_id {
-                so += v;
+                so += f64::from(v);
+                vo += var;
                 no += 1;
             } else {
-                sr += v;
+                sr += f64::from(v);
+                vr += var;
                 nr += 1;
             }
         }
@@ -219,7 +263,8 @@ pub fn object_cnr(input: &DetectorInput<'_>, object: &GtObject, sigma_dn: f64) -
         // The object fills the frame: nothing to contrast with, but nothing to miss either.
         return f64::INFINITY;
     }
-    (so / no as f64 - sr / nr as f64).abs() / sigma_dn
+    let sigma = (0.5 * (vo / no as f64 + vr / nr as f64)).sqrt().max(QUANTISATION_STD_DN);
+    (so / no as f64 - sr / nr as f64).abs() / sigma
 }
 
 fn jitter_box(b: [f64; 4], model: &DetectabilityModel, width: u32, height: u32, rng: &mut impl Rng) -> [f64; 4] {
@@ -243,17 +288,12 @@ impl Detector for DetectabilityModel {
         let n = input.width as usize * input.height as usize;
         assert_eq!(input.image_dn.len(), n, "image must be width x height");
         assert_eq!(input.instance_id.len(), n, "instance buffer must be width x height");
-        let sigma = input
-            .noise_std_dn
-            .filter(|s| s.is_finite() && *s > 0.0)
-            .unwrap_or_else(|| estimate_noise_std_dn(input.image_dn, input.width, input.height))
-            .max(QUANTISATION_STD_DN);
+        let sigma = input.noise.table(input);
         let mut out = Vec::new();
         let mut objects: Vec<&GtObject> = input.objects.iter().filter(|o| o.counted).collect();
         objects.sort_by_key(|o| o.instance_id);
         for o in &objects {
-            let cnr = object_cnr(input, o, sigma);
-            let p = self.probability(f64::from(o.visible_px).sqrt(), cnr);
+            let p = self.object_probability(input, o, &sigma);
             let mut rng = rng::substream(input.frame_seed, "detection/object", u64::from(o.instance_id));
             if rng.random::<f64>() < p {
                 out.push(Detection {
@@ -263,13 +303,20 @@ impl Detector for DetectabilityModel {
                 });
             }
         }
-        self.false_positives(input, sigma, &mut out);
+        self.false_positives(input, &sigma, &mut out);
         out
     }
 }
 
 impl DetectabilityModel {
-    fn false_positives(&self, input: &DetectorInput<'_>, sigma: f64, out: &mut Vec<Detection>) {
+    /// Detection probability of one object (steps 1 to 4 of the module docs), the noise from
+    /// `sigma_by_level` ([`NoiseSource::table`]).
+    #[must_use]
+    pub fn object_probability(&self, input: &DetectorInput<'_>, object: &GtObject, sigma_by_level: &[f64]) -> f64 {
+        self.probability(f64::from(object.visible_px).sqrt(), object_cnr(input, object, sigma_by_level))
+    }
+
+    fn false_positives(&self, input: &DetectorInput<'_>, sigma_by_level: &[f64], out: &mut Vec<Detection>) {
         if self.false_positive_rate.is_nan() || self.false_positive_rate <= 0.0 {
             return;
         }
@@ -300,7 +347,7 @@ impl DetectabilityModel {
                 }
                 let mean = s / k as f64;
                 let std = (s2 / k as f64 - mean * mean).max(0.0).sqrt();
-                if std <= 3.0 * sigma {
+                if std <= 3.0 * level_sigma(sigma_by_level, mean as f32) {
                     continue;
                 }
                 let mut rng = rng::substream(input.frame_seed, "detection/false_positive", index);
