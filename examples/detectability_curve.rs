@@ -8,7 +8,7 @@
 
 use scene_gen::detection::coco_eval::{CocoCategory, CocoGroundTruth, CocoImage, evaluate};
 use scene_gen::detection::ground_truth::to_annotations;
-use scene_gen::detection::{DetectabilityModel, Detector, DetectorInput, GtObject};
+use scene_gen::detection::{DetectabilityModel, Detector, DetectorInput, GtObject, NoiseSource};
 use scene_gen::sensor::noise::normal;
 
 fn frame(side: u32, noise_dn: f64, seed: u64) -> (Vec<f32>, Vec<u32>, Vec<GtObject>) {
@@ -54,7 +54,7 @@ fn ap(side: u32, noise_dn: f64, model: &DetectabilityModel) -> (f64, f64) {
             height: 240,
             instance_id: &ids,
             objects: &objects,
-            noise_std_dn: None,
+            noise: NoiseSource::Measured,
             frame_seed: seed,
         };
         let dets: Vec<_> = model.detect(&input).iter().map(|d| d.record(1)).collect();

@@ -58,14 +58,16 @@ fn on_the_same_camera_night_scores_no_higher_than_day() {
         // The ISP brings the night image to the day's brightness: ORB finds features at night.
         assert!(night.mean_keypoints > 0.0 && night.mean_inliers > 0.0, "{camera}: night {night:?}");
         assert_eq!(day.threshold_accuracy, night.threshold_accuracy, "geometric");
-        // Detection AP is not asserted here: it is the open part of this behaviour. Before the
-        // sun was taken out of the light-culling total (render::lights) window-lit walls were
-        // speckled by day and day AP fell far below night AP on this case (day 0.50 vs night
-        // 0.70 on IMX174, 0.27 vs 0.60 on IMX172). Now the two are close, but on 6 anchors
-        // (5 or 6 objects) the order flips with the noise draws (0.70 / 0.70 with one noise
-        // sampler, 0.70 / 0.80 with the next), and on larger samples the built-in detector
-        // still scores the default camera higher at night (module docs of scene_gen::evaluate,
-        // "Day versus night"). An assertion that holds by the luck of the draws proves nothing.
+        // Detection AP is not asserted here. The detector's inversion is fixed: it measured the
+        // renderer's day sampling noise as camera noise (day 0.74 vs night 0.97 on the default
+        // camera, houses 0 and 1, 320 px) and now divides by the camera's own noise table
+        // (scene_gen::detection::output_noise); tests/detection.rs checks day >= night on the
+        // camera's own sensor and ISP. On rendered houses the order still depends on what the
+        // preview render leaves in the day frames (no bounce light, one area-light sample per
+        // pixel), not on the camera: day / night 0.80 / 0.70 (IMX174) and 1.00 / 0.80 (IMX172)
+        // here on house 0, but 0.86 / 0.88 and 0.84 / 0.86 on house 1 (module docs of
+        // scene_gen::evaluate, "Day versus night"). An assertion that holds on one house and
+        // not the next proves nothing.
         assert!(
             night.mean_inliers < day.mean_inliers,
             "{camera}: inliers {} vs {}",
@@ -97,11 +99,12 @@ fn more_noise_lowers_orb_inliers_and_detection() {
     let (c, n) = (&clean.scenarios.day, &noisy.scenarios.day);
     assert!(n.mean_inliers < c.mean_inliers, "inliers {} vs {}", n.mean_inliers, c.mean_inliers);
     assert!(n.inlier_ratio < c.inlier_ratio, "ratio {} vs {}", n.inlier_ratio, c.inlier_ratio);
-    // Detection is asserted at night (2 lux, 15 dB), where the shorter exposure leaves a CNR
-    // the detectability model resolves fewer objects at (AP50 0.6 -> 0 here; at 12 anchors and
-    // 160 or 240 px: 0.86 -> 0.40, 0.85 -> 0.33). By day (20 lux) the built-in detector's AP
-    // *rises* with this noise (0.6 -> 1.0 here, 0.79 -> 1.0 at 12 anchors): a known problem of
-    // the detector, not of the render (module docs of scene_gen::evaluate, "Day versus night").
+    // Detection falls with the noise in both scenarios (before the detector was told the
+    // camera's noise, day AP *rose* with it here, 0.6 -> 1.0: the image estimate was dominated
+    // by the renderer's day sampling noise, not the sensor's). Day 1.00 -> 0.40 and night
+    // 0.80 -> 0.20 here; houses 1 and 2: day 0.84 -> 0.76 and 1.00 -> 0.80, night 0.86 -> 0.35
+    // and 1.00 -> 0.19.
+    assert!(n.ap50 < c.ap50, "day AP50 {} vs {}", n.ap50, c.ap50);
     let (c, n) = (&clean.scenarios.night, &noisy.scenarios.night);
     assert!(n.ap50 < c.ap50, "night AP50 {} vs {}", n.ap50, c.ap50);
 }

@@ -8,13 +8,25 @@
 //!    area, the convention of the NVESD target-acquisition models (Vollmerhausen and Jacobs,
 //!    "The Targeting Task Performance (TTP) Metric", NVESD report AMSEL-NV-TR-230, 2004), so
 //!    occlusion shrinks it.
-//! 2. **Contrast-to-noise ratio** `CNR = |mean(object) - mean(ring)| / sigma`, on the noisy DN
-//!    image: object pixels are the instance's pixels, the ring is every other pixel of its box
-//!    grown by `max(2, D / 4)` px on each side; `sigma` is the temporal noise (DN), from the
-//!    noise model when the caller has it ([`DetectorInput::noise_std_dn`]) or measured on the
-//!    image as `1.4826 * median(|I(x+1, y) - I(x, y)|) / sqrt(2)` (a MAD estimate on horizontal
-//!    differences: robust to edges, slightly high on fine texture), never below the 8-bit
-//!    quantisation noise `1 / sqrt(12)` DN.
+//! 2. **Contrast-to-noise ratio** `CNR = C / sigma`, on the noisy DN image. Object pixels are
+//!    the instance's pixels, the ring is every other pixel of its box grown by `max(2, D / 4)`
+//!    px on each side.
+//!    * The contrast is the mean difference less what pixel-to-pixel variation adds to it:
+//!      `C^2 = max(0, (m_o - m_r)^2 - v_o / n_o - v_r / n_r)`, with `m`, `v`, `n` the mean,
+//!      sample variance and pixel count of object and ring. `(m_o - m_r)^2` alone is inflated
+//!      by noise by `v_o / n_o + v_r / n_r` on average, so a featureless patch in noise would
+//!      get a contrast; the correction makes `C^2` unbiased, and noise of any origin (the
+//!      sensor's, or a renderer's sampling noise) never creates contrast.
+//!    * `sigma` is the camera's noise at the levels of these pixels: with
+//!      [`NoiseSource::ByLevel`], `sigma^2` is the mean of `table[level]^2` over the object's
+//!      pixels and over the ring's, averaged; with [`NoiseSource::Uniform`] one value. The
+//!      evaluator passes the table of [`super::output_noise`] (the sensor's EMVA 1288 noise
+//!      through the ISP curve). [`NoiseSource::Measured`] estimates one value on the image,
+//!      `1.4826 * median(|I(x+1, y) - I(x, y)|) / sqrt(2)` (a MAD estimate on horizontal
+//!      differences, robust to edges), the fallback for an image of unknown origin: it
+//!      measures every pixel-to-pixel variation, fine texture and a renderer's Monte Carlo
+//!      noise included, not the camera's. Never below the 8-bit quantisation noise
+//!      `1 / sqrt(12)` DN.
 //! 3. **Resolvable cycles** `N = D / (2 s)`, with `s = max(1, k / CNR)` the smallest bar (px)
 //!    that stands out of the noise: a bar of `s x s` pixels averages noise down by `s`, so its
 //!    signal-to-noise ratio is `CNR s`, and it is seen when that reaches Rose's threshold
@@ -26,15 +38,20 @@
 //!    ECOM-7043, 1975; the ACQUIRE form). `N50` is the cycles across the critical dimension for
 //!    a 50 % chance ([`DEFAULT_N50_CYCLES`]).
 //!
-//! Each object is then detected with probability `P` (a Bernoulli draw from a seeded stream),
-//! and a detection carries `score = P` and the visible box with each edge moved by a normal
-//! localisation error of standard deviation `0.5 px + 4 %` of the box side on that axis. The
-//! draw matters: emitting every object with score `P` and no false positives would score AP = 1
-//! however small `P` is, since AP only sees the ranking.
+//! Each object is then detected with probability `P`: it is found when `P > u`, with `u`
+//! uniform from the stream of (`frame_seed`, instance id); a detection carries `score = P` and
+//! the visible box with each edge moved by a normal localisation error of standard deviation
+//! `0.5 px + 4 %` of the box side on that axis (drawn from the same stream). The draw
+//! matters: emitting every object with score `P` and no false positives would score AP = 1
+//! however small `P` is, since AP only sees the ranking. `u` is the object's luck in that
+//! view, not the image's: two versions of one frame given the same `frame_seed` (the
+//! evaluator's day and night of a pose) draw the same `u` and box error per object, so an
+//! object is found in one and missed in the other only because its `P` differs (common random
+//! numbers), and raising `P` never loses a detection.
 //!
 //! **False positives** on textured clutter: the image is cut into cells of 32 px at 640 x 480
 //! (scaled with the square root of the pixel count); a cell is clutter when its DN standard
-//! deviation exceeds `3 sigma` (structure, not noise) and none of it belongs to a counted
+//! deviation exceeds `3 sigma` at its mean level (structure, not noise) and none of it belongs to a counted
 //! object (a box on part of a real object is a localisation error, not a false alarm on
 //! clutter). Each clutter cell yields a false positive with probability
 //! [`DetectabilityModel::false_positive_rate`] (default 2 %), of a uniformly drawn class
@@ -49,8 +66,34 @@
 //! COCO match needs a box that overlaps by half, and [`DetectabilityModel::recognition`] gives
 //! Johnson's 4.0 for a class-level task. `k = 5` is Rose's (A. Rose, "The sensitivity
 //! performance of the human eye on an absolute scale", JOSA 38, 1948). The false-positive rate
-//! and scores, and the localisation error, are engineering choices. A real network can replace
-//! the whole model through the plug-in protocol of the [module docs](super).
+//! and scores, and the localisation error, are engineering choices. Nothing was tuned to make
+//! day score above night: the noise and contrast of step 2 are measurements, and the figures
+//! below come from fixing what they measured.
+//!
+//! # Day and night (issue 5)
+//!
+//! On the evaluator's default camera (IMX174, 4 mm, pitch -10 deg, houses 0 and 1, 25
+//! anchors, 320 px) this model used to score AP@0.5 0.74 by day and 0.97 at night. The noise
+//! was measured on the image, and by day the image's pixel-to-pixel variation is mostly the
+//! renderer's: one area-light sample per pixel on window-lit surfaces
+//! ([`crate::render::RenderSettings::preview`]). `examples/daynight_objects.rs`, on the 120
+//! counted objects of those frames (means over objects, day / night):
+//!
+//! | noise figure | sigma (8-bit DN) | mean P |
+//! | --- | --- | --- |
+//! | measured on the image (the old rule) | 8.07 / 4.13 | 0.728 / 0.942 |
+//! | the sensor's own: noisy minus noiseless capture, around each object | 0.90 / 4.61 | 0.947 / 0.934 |
+//! | the camera's table ([`super::output_noise`], now) | 0.84 / 4.05 | 0.950 / 0.941 |
+//!
+//! With the sensor noise switched off the image estimate stays at 7.97 DN by day (1.09 at
+//! night), and with 4 x 4 area-light samples and no light culling it falls to 2.3: it was the
+//! renderer's noise, taken for the camera's. Turning false positives off changed nothing
+//! because they were never the cause (their scores are below 0.5, under almost every true
+//! detection). See [`crate::evaluate`] ("Day versus night") for the AP figures now and what
+//! is left.
+//!
+//! A real network can replace the whole model through the plug-in protocol of the
+//! [module docs](super).
 
 use rand::Rng;
 
@@ -83,10 +126,45 @@ pub struct DetectorInput<'a> {
     pub instance_id: &'a [u32],
     /// The frame's ground truth; only `counted` objects are candidates.
     pub objects: &'a [GtObject],
-    /// Temporal noise standard deviation from the noise model, DN; `None` measures it.
-    pub noise_std_dn: Option<f64>,
+    /// Where the noise the contrast is divided by comes from.
+    pub noise: NoiseSource<'a>,
     /// Seed of this frame's draws.
     pub frame_seed: u64,
+}
+
+/// The noise a [`DetectabilityModel`] divides contrast by (module docs, step 2).
+#[derive(Clone, Copy, Debug)]
+pub enum NoiseSource<'a> {
+    /// Measured on the image ([`estimate_noise_std_dn`]): the fallback for an image of unknown
+    /// origin. Texture and a renderer's sampling noise inflate it.
+    Measured,
+    /// One standard deviation for every pixel, DN.
+    Uniform(f64),
+    /// The standard deviation at each DN level: `table[round(DN)]` (the last entry beyond
+    /// it), the camera's own noise through its output rule
+    /// ([`super::output_noise::output_noise_by_level`]).
+    ByLevel(&'a [f64]),
+}
+
+impl NoiseSource<'_> {
+    /// The per-level table this source stands for on `input`'s image (one entry when the
+    /// noise is the same at every level), each entry at least [`QUANTISATION_STD_DN`].
+    #[must_use]
+    pub fn table(&self, input: &DetectorInput<'_>) -> Vec<f64> {
+        let floor = |s: f64| if s.is_finite() { s.max(QUANTISATION_STD_DN) } else { QUANTISATION_STD_DN };
+        match *self {
+            NoiseSource::Measured => vec![estimate_noise_std_dn(input.image_dn, input.width, input.height)],
+            NoiseSource::Uniform(s) => vec![floor(s)],
+            NoiseSource::ByLevel(t) if !t.is_empty() => t.iter().map(|&s| floor(s)).collect(),
+            NoiseSource::ByLevel(_) => vec![QUANTISATION_STD_DN],
+        }
+    }
+}
+
+/// The entry of a per-level noise table for a DN value.
+fn level_sigma(table: &[f64], dn: f32) -> f64 {
+    let i = if dn.is_nan() || dn <= 0.0 { 0 } else { (dn.round() as usize).min(table.len() - 1) };
+    table[i]
 }
 
 /// Anything that finds objects in a frame.
@@ -188,9 +266,14 @@ pub fn estimate_noise_std_dn(image: &[f32], width: u32, height: u32) -> f64 {
     (1.4826 * f64::from(*median) / std::f64::consts::SQRT_2).max(QUANTISATION_STD_DN)
 }
 
-/// Contrast-to-noise ratio of an object against its ring (step 2 of the module docs).
+/// Contrast-to-noise ratio of an object against its ring (step 2 of the module docs), with the
+/// noise from `sigma_by_level` ([`NoiseSource::table`]; a one-entry table is a uniform noise).
+///
+/// # Panics
+/// If `sigma_by_level` is empty.
 #[must_use]
-pub fn object_cnr(input: &DetectorInput<'_>, object: &GtObject, sigma_dn: f64) -> f64 {
+pub fn object_cnr(input: &DetectorInput<'_>, object: &GtObject, sigma_by_level: &[f64]) -> f64 {
+    assert!(!sigma_by_level.is_empty(), "a noise table needs at least one entry");
     let (w, h) = (input.width as i64, input.height as i64);
     let margin = (0.25 * f64::from(object.visible_px).sqrt()).max(2.0).round() as i64;
     let [bx, by, bw, bh] = object.bbox;
@@ -198,18 +281,20 @@ pub fn object_cnr(input: &DetectorInput<'_>, object: &GtObject, sigma_dn: f64) -
     let y0 = (by as i64 - margin).max(0);
     let x1 = ((bx + bw) as i64 + margin).min(w);
     let y1 = ((by + bh) as i64 + margin).min(h);
-    let (mut so, mut no, mut sr, mut nr) = (0.0f64, 0u64, 0.0f64, 0u64);
+    // Sums of value, of its square and of the noise variance, object and ring.
+    let (mut o, mut r) = ([0.0f64; 3], [0.0f64; 3]);
+    let (mut no, mut nr) = (0u64, 0u64);
     for y in y0..y1 {
         for x in x0..x1 {
             let i = (y * w + x) as usize;
-            let v = f64::from(input.image_dn[i]);
-            if input.instance_id[i] == object.instance_id {
-                so += v;
-                no += 1;
-            } else {
-                sr += v;
-                nr += 1;
-            }
+            let v = input.image_dn[i];
+            let var = level_sigma(sigma_by_level, v).powi(2);
+            let (acc, n) =
+                if input.instance_id[i] == object.instance_id { (&mut o, &mut no) } else { (&mut r, &mut nr) };
+            acc[0] += f64::from(v);
+            acc[1] += f64::from(v) * f64::from(v);
+            acc[2] += var;
+            *n += 1;
         }
     }
     if no == 0 {
@@ -219,7 +304,14 @@ pub fn object_cnr(input: &DetectorInput<'_>, object: &GtObject, sigma_dn: f64) -
         // The object fills the frame: nothing to contrast with, but nothing to miss either.
         return f64::INFINITY;
     }
-    (so / no as f64 - sr / nr as f64).abs() / sigma_dn
+    let (no, nr) = (no as f64, nr as f64);
+    let (mo, mr) = (o[0] / no, r[0] / nr);
+    // The squared mean difference less its expected inflation by pixel-to-pixel variation
+    // (sample variances over the pixel counts): noise alone gives no contrast.
+    let spread = (o[1] / no - mo * mo).max(0.0) / no + (r[1] / nr - mr * mr).max(0.0) / nr;
+    let contrast = ((mo - mr).powi(2) - spread).max(0.0).sqrt();
+    let sigma = (0.5 * (o[2] / no + r[2] / nr)).sqrt().max(QUANTISATION_STD_DN);
+    contrast / sigma
 }
 
 fn jitter_box(b: [f64; 4], model: &DetectabilityModel, width: u32, height: u32, rng: &mut impl Rng) -> [f64; 4] {
@@ -243,17 +335,12 @@ impl Detector for DetectabilityModel {
         let n = input.width as usize * input.height as usize;
         assert_eq!(input.image_dn.len(), n, "image must be width x height");
         assert_eq!(input.instance_id.len(), n, "instance buffer must be width x height");
-        let sigma = input
-            .noise_std_dn
-            .filter(|s| s.is_finite() && *s > 0.0)
-            .unwrap_or_else(|| estimate_noise_std_dn(input.image_dn, input.width, input.height))
-            .max(QUANTISATION_STD_DN);
+        let sigma = input.noise.table(input);
         let mut out = Vec::new();
         let mut objects: Vec<&GtObject> = input.objects.iter().filter(|o| o.counted).collect();
         objects.sort_by_key(|o| o.instance_id);
         for o in &objects {
-            let cnr = object_cnr(input, o, sigma);
-            let p = self.probability(f64::from(o.visible_px).sqrt(), cnr);
+            let p = self.object_probability(input, o, &sigma);
             let mut rng = rng::substream(input.frame_seed, "detection/object", u64::from(o.instance_id));
             if rng.random::<f64>() < p {
                 out.push(Detection {
@@ -263,13 +350,20 @@ impl Detector for DetectabilityModel {
                 });
             }
         }
-        self.false_positives(input, sigma, &mut out);
+        self.false_positives(input, &sigma, &mut out);
         out
     }
 }
 
 impl DetectabilityModel {
-    fn false_positives(&self, input: &DetectorInput<'_>, sigma: f64, out: &mut Vec<Detection>) {
+    /// Detection probability of one object (steps 1 to 4 of the module docs), the noise from
+    /// `sigma_by_level` ([`NoiseSource::table`]).
+    #[must_use]
+    pub fn object_probability(&self, input: &DetectorInput<'_>, object: &GtObject, sigma_by_level: &[f64]) -> f64 {
+        self.probability(f64::from(object.visible_px).sqrt(), object_cnr(input, object, sigma_by_level))
+    }
+
+    fn false_positives(&self, input: &DetectorInput<'_>, sigma_by_level: &[f64], out: &mut Vec<Detection>) {
         if self.false_positive_rate.is_nan() || self.false_positive_rate <= 0.0 {
             return;
         }
@@ -300,7 +394,7 @@ impl DetectabilityModel {
                 }
                 let mean = s / k as f64;
                 let std = (s2 / k as f64 - mean * mean).max(0.0).sqrt();
-                if std <= 3.0 * sigma {
+                if std <= 3.0 * level_sigma(sigma_by_level, mean as f32) {
                     continue;
                 }
                 let mut rng = rng::substream(input.frame_seed, "detection/false_positive", index);

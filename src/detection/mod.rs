@@ -6,6 +6,8 @@
 //!   count (within 6 m, above a pixel floor), as COCO annotations.
 //! * [`detectability`]: the [`Detector`] trait and [`detectability::DetectabilityModel`], a
 //!   Johnson-criteria detector driven by object size and contrast-to-noise on the noisy image.
+//! * [`output_noise`]: the camera's noise at each level of the 8-bit image, from its sensor
+//!   model and output rule: what the detector divides contrast by in the evaluator.
 //! * [`coco_eval`]: AP@0.5, AP@[.5:.95] and per-class AP exactly as pycocotools computes them,
 //!   and COCO JSON in and out.
 //! * [`thresholds`]: threshold accuracy from per-frame visible pixels and crossing times.
@@ -44,11 +46,12 @@
 pub mod coco_eval;
 pub mod detectability;
 pub mod ground_truth;
+pub mod output_noise;
 pub mod plugin;
 pub mod thresholds;
 
 pub use coco_eval::{CocoGroundTruth, CocoMetrics, DetectionRecord, GtAnnotation, evaluate};
-pub use detectability::{DetectabilityModel, Detector, DetectorInput};
+pub use detectability::{DetectabilityModel, Detector, DetectorInput, NoiseSource};
 pub use ground_truth::{GroundTruthConfig, GtObject, frame_ground_truth};
 
 /// A detection in one image, before it is given an image id.
