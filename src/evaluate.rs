@@ -86,7 +86,7 @@
 //!   | MT9V032, 16.09 mm, -8.46 deg | 0 (25) / 1.27 (43) | 0 (34) / 1.27 (43) | 1.82 (42) / 1.54 (44) |
 //!   | IMX250, 10.47 mm, -1.53 deg | 0 (37) / 1.65 (57) | 2.40 (50) / 1.66 (57) | 2.28 (55) / 1.98 (57) |
 //!
-//!   One bounce ray per pixel (`indirect_rays: 1`) costs 1.8x to 1.9x the CPU time of a
+//!   One bounce ray per pixel (`indirect_rays: 1`, `scene-gen evaluate --bounce-rays 1`) costs 1.8x to 1.9x the CPU time of a
 //!   candidate (MT9V032: 29.6 to 53.1 s user time). Not an exposure problem: an auto-exposure
 //!   cannot brighten radiance that is exactly zero.
 //! * **Detector noise (fixed).** The built-in [`DetectabilityModel`] divided contrast by a
@@ -203,7 +203,8 @@ pub const EVAL_DECOUPLED_STRIDE: u32 = 3;
 /// make day AP reach night AP on the default camera (IMX174, 4 mm, -10 deg, seeds 0..2, 320 px:
 /// day 0.74 / night 0.97 without the bounce, 0.69 / 0.85 with it, with the detector of that
 /// time; module docs, "Day versus night", for the figures now; 15.2 against 28.0 CPU-s), so
-/// the cheaper setting stays. Set [`EvalConfig::render`] (and `render_name`) to use others.
+/// the cheaper setting stays. Set [`EvalConfig::render`] (and `render_name`) to use others;
+/// `scene-gen evaluate --bounce-rays N` adds N bounce rays per pixel.
 #[must_use]
 pub fn eval_render_settings() -> RenderSettings {
     RenderSettings {

@@ -214,7 +214,9 @@ fn bad_camera_specs_exit_2_without_output() {
         assert_eq!(out.status.code(), Some(2), "{camera}: {}", String::from_utf8_lossy(&out.stderr));
         assert!(out.stdout.is_empty(), "{camera}: no partial output");
     }
-    for extra in [["--seeds", "3..3"], ["--speed-m-s", "0"], ["--output", "auto"], ["--detector", " "]] {
+    for extra in
+        [["--seeds", "3..3"], ["--speed-m-s", "0"], ["--output", "auto"], ["--detector", " "], ["--bounce-rays", "17"]]
+    {
         let out = cli(&["--camera", "IMX172", "--frames", "1", "--max-width", "32", extra[0], extra[1]]);
         assert_eq!(out.status.code(), Some(2), "{extra:?}: {}", String::from_utf8_lossy(&out.stderr));
     }
