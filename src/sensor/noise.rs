@@ -499,13 +499,14 @@ impl SensorModel {
         gain_db: f64,
         frame_seed: u64,
     ) -> Vec<u16> {
-        let max = self.max_dn();
-        // Already whole numbers when quantization is on: no second rounding.
-        let rounded = self.effects.quantization.enabled;
-        self.simulate_dn_with(pattern, photons, exposure_s, gain_db, frame_seed)
-            .into_iter()
-            .map(|y| if rounded { y } else { y.round() }.clamp(0.0, max) as u16)
-            .collect()
+        let sim = self.frame_simulator(pattern, exposure_s, gain_db, frame_seed);
+        assert_eq!(photons.len(), sim.width * sim.height, "photon image size must be width x height");
+        let mut out = vec![0u16; photons.len()];
+        out.par_chunks_mut(sim.width.max(1))
+            .zip(photons.par_chunks(sim.width.max(1)))
+            .enumerate()
+            .for_each(|(r, (row_out, row_photons))| sim.row(r, row_photons, |c, y| row_out[c] = sim.to_u16(y)));
+        out
     }
 
     /// The frame before the final conversion to `u16`: rounded and clipped only when the
@@ -522,23 +523,35 @@ impl SensorModel {
         gain_db: f64,
         frame_seed: u64,
     ) -> Vec<f64> {
+        let sim = self.frame_simulator(pattern, exposure_s, gain_db, frame_seed);
+        assert_eq!(photons.len(), sim.width * sim.height, "photon image size must be width x height");
+        let mut out = vec![0f64; photons.len()];
+        out.par_chunks_mut(sim.width.max(1))
+            .zip(photons.par_chunks(sim.width.max(1)))
+            .enumerate()
+            .for_each(|(r, (row_out, row_photons))| sim.row(r, row_photons, |c, y| row_out[c] = y));
+        out
+    }
+
+    /// The per-frame constants of one simulated frame, so that callers can simulate it row by
+    /// row, fused with their own per-row work (e.g. the evaluator's photon conversion before and
+    /// its 8-bit output after; [`crate::isp::capture_8bit`]).
+    #[must_use]
+    pub fn frame_simulator<'a>(
+        &'a self,
+        pattern: &'a FixedPattern,
+        exposure_s: f64,
+        gain_db: f64,
+        frame_seed: u64,
+    ) -> FrameSimulator<'a> {
         let (width, height) = (pattern.width, pattern.height);
-        assert_eq!(photons.len(), width * height, "photon image size must be width x height");
         let e = &self.effects;
-        let k = self.k_dn_per_e(gain_db);
         let (pre_var, post_var) = self.read_variances();
-        let (pre_sd, post_sd) = (pre_var.sqrt(), post_var.sqrt());
-        let dark_mean = self.dark_rate() * exposure_s;
-        let full_well = self.full_well();
-        let black = self.black_dn();
-        let max = self.max_dn();
-        let row_sd = if e.row_column_noise.enabled { e.row_column_noise.row_std_dn } else { 0.0 };
         let pp = e.periodic_pattern;
         let two_pi = std::f64::consts::TAU;
         // The waves from per-column and per-row tables, `sin(a + b) = sin a cos b + cos a sin b`
         // (w + h sin_cos calls per frame instead of two sines per pixel; the same tables for
         // every row window, so a row's bytes do not depend on how many rows are simulated).
-        let separable = pp.wave_x_freq_y_cycles_per_px == 0.0 && pp.wave_y_freq_x_cycles_per_px == 0.0;
         let col_waves: Vec<[(f64, f64); 2]> = if pp.enabled {
             (0..width)
                 .map(|c| {
@@ -552,52 +565,145 @@ impl SensorModel {
         } else {
             Vec::new()
         };
-        let mut out = vec![0f64; width * height];
-        out.par_chunks_mut(width.max(1)).enumerate().for_each(|(r, row_out)| {
-            let mut rng = rng::substream(frame_seed, "sensor/temporal", r as u64);
-            let row_offset = if row_sd > 0.0 { row_sd * standard_normal(&mut rng) } else { 0.0 };
-            let rf = r as f64;
-            let row_waves = [
-                (two_pi * pp.wave_x_freq_y_cycles_per_px * rf).sin_cos(),
-                (two_pi * pp.freq_y_cycles_per_px * rf).sin_cos(),
-            ];
-            let periodic_y = if pp.enabled { pp.amplitude_dn * row_waves[1].0 } else { 0.0 };
-            for (c, y_out) in row_out.iter_mut().enumerate() {
-                let i = r * width + c;
-                let sens = pattern.prnu.get(i).map_or(1.0, |&p| 1.0 + f64::from(p));
-                let mu_e = self.quantum_efficiency * sens * f64::from(photons[i]).max(0.0);
-                let hot = pattern.hot_e_per_s.get(i).map_or(0.0, |&h| f64::from(h) * exposure_s);
-                let mut electrons = poisson(&mut rng, mu_e) + poisson(&mut rng, dark_mean + hot);
-                electrons += pattern.dsnu_e.get(i).map_or(0.0, |&d| f64::from(d));
-                if pre_sd > 0.0 {
-                    electrons += pre_sd * standard_normal(&mut rng);
+        FrameSimulator {
+            model: self,
+            pattern,
+            width,
+            height,
+            exposure_s,
+            frame_seed,
+            k: self.k_dn_per_e(gain_db),
+            pre_sd: pre_var.sqrt(),
+            post_sd: post_var.sqrt(),
+            dark_mean: self.dark_rate() * exposure_s,
+            full_well: self.full_well(),
+            black: self.black_dn(),
+            max: self.max_dn(),
+            row_sd: if e.row_column_noise.enabled { e.row_column_noise.row_std_dn } else { 0.0 },
+            separable: pp.wave_x_freq_y_cycles_per_px == 0.0 && pp.wave_y_freq_x_cycles_per_px == 0.0,
+            col_waves,
+        }
+    }
+}
+
+/// One frame of a [`SensorModel`] with its fixed pattern, exposure, gain and frame seed: the
+/// per-frame constants computed once, and [`FrameSimulator::row`] to simulate any row on its
+/// own. Row `r`'s draws come from `rng::substream(frame_seed, "sensor/temporal", r)` whichever
+/// rows are simulated and in whatever order, so output bytes never depend on the thread count.
+#[derive(Debug, Clone)]
+pub struct FrameSimulator<'a> {
+    model: &'a SensorModel,
+    pattern: &'a FixedPattern,
+    /// Frame size, pixels (the pattern's).
+    pub width: usize,
+    pub height: usize,
+    exposure_s: f64,
+    frame_seed: u64,
+    /// System gain at the frame's analog gain, DN per electron.
+    k: f64,
+    pre_sd: f64,
+    post_sd: f64,
+    dark_mean: f64,
+    full_well: f64,
+    black: f64,
+    max: f64,
+    row_sd: f64,
+    separable: bool,
+    col_waves: Vec<[(f64, f64); 2]>,
+}
+
+impl FrameSimulator<'_> {
+    /// Simulates row `r` from its mean photons per pixel (`photons.len()` = width), handing
+    /// each pixel's value (before the final conversion, as [`SensorModel::simulate_dn_with`]) to
+    /// `emit(column, value)` in column order.
+    ///
+    /// # Panics
+    /// If `photons` is not one row long or `r` is outside the frame.
+    #[inline]
+    pub fn row(&self, r: usize, photons: &[f32], mut emit: impl FnMut(usize, f64)) {
+        let width = self.width;
+        assert!(photons.len() == width && r < self.height, "row {r} of {} px must be in the frame", photons.len());
+        let e = &self.model.effects;
+        let p = self.pattern;
+        let span = r * width..(r + 1) * width;
+        // Row slices of the maps that are on (an effect that is off has an empty map).
+        let prnu = p.prnu.get(span.clone());
+        let hot = p.hot_e_per_s.get(span.clone());
+        let dsnu = p.dsnu_e.get(span);
+        let column = (p.column_dn.len() == width).then_some(p.column_dn.as_slice());
+        let qe = self.model.quantum_efficiency;
+        let nl = e.nonlinearity;
+        let pp = e.periodic_pattern;
+        let (pre_sd, post_sd, k, full_well) = (self.pre_sd, self.post_sd, self.k, self.full_well);
+        let (quantize, saturate, max) = (e.quantization.enabled, e.saturation.enabled, self.max);
+
+        let mut rng = rng::substream(self.frame_seed, "sensor/temporal", r as u64);
+        let row_offset = if self.row_sd > 0.0 { self.row_sd * standard_normal(&mut rng) } else { 0.0 };
+        let two_pi = std::f64::consts::TAU;
+        let rf = r as f64;
+        let row_waves = [
+            (two_pi * pp.wave_x_freq_y_cycles_per_px * rf).sin_cos(),
+            (two_pi * pp.freq_y_cycles_per_px * rf).sin_cos(),
+        ];
+        let periodic_y = if pp.enabled { pp.amplitude_dn * row_waves[1].0 } else { 0.0 };
+        // The dark draw's mean is the same for every pixel without hot pixels: its Knuth limit
+        // `exp(-mean)` is then computed once per row, not once per pixel.
+        let dark_knuth = (hot.is_none() && self.dark_mean > 0.0 && self.dark_mean < POISSON_KNUTH_MAX)
+            .then(|| (-self.dark_mean).exp());
+        for (c, &ph) in photons.iter().enumerate() {
+            let sens = prnu.map_or(1.0, |m| 1.0 + f64::from(m[c]));
+            let mu_e = qe * sens * f64::from(ph).max(0.0);
+            let mut electrons = poisson(&mut rng, mu_e);
+            electrons += match dark_knuth {
+                Some(limit) => poisson_knuth(&mut rng, limit),
+                None => {
+                    let h = hot.map_or(0.0, |m| f64::from(m[c]) * self.exposure_s);
+                    poisson(&mut rng, self.dark_mean + h)
                 }
-                electrons = electrons.min(full_well);
-                let mut y = self.nonlinear(k * electrons);
-                if post_sd > 0.0 {
-                    y += post_sd * standard_normal(&mut rng);
-                }
-                y += row_offset + black;
-                y += pattern.column_dn.get(c).map_or(0.0, |&v| f64::from(v));
-                if pp.enabled {
-                    let [(sx, cx), (sy, cy)] = col_waves[c];
-                    if separable {
-                        y += periodic_y + pp.amplitude_dn * sx;
-                    } else {
-                        let [(sxr, cxr), (syr, cyr)] = row_waves;
-                        y += pp.amplitude_dn * ((sx * cxr + cx * sxr) + (sy * cyr + cy * syr));
-                    }
-                }
-                if e.quantization.enabled {
-                    y = y.round();
-                }
-                if e.saturation.enabled {
-                    y = y.clamp(0.0, max);
-                }
-                *y_out = y;
+            };
+            electrons += dsnu.map_or(0.0, |m| f64::from(m[c]));
+            if pre_sd > 0.0 {
+                electrons += pre_sd * standard_normal(&mut rng);
             }
-        });
-        out
+            electrons = electrons.min(full_well);
+            let mut y = k * electrons;
+            if nl.enabled {
+                let q = y / max;
+                y *= 1.0 + nl.a * q * q * q;
+            }
+            if post_sd > 0.0 {
+                y += post_sd * standard_normal(&mut rng);
+            }
+            y += row_offset + self.black;
+            y += column.map_or(0.0, |m| f64::from(m[c]));
+            if pp.enabled {
+                let [(sx, cx), (sy, cy)] = self.col_waves[c];
+                if self.separable {
+                    y += periodic_y + pp.amplitude_dn * sx;
+                } else {
+                    let [(sxr, cxr), (syr, cyr)] = row_waves;
+                    y += pp.amplitude_dn * ((sx * cxr + cx * sxr) + (sy * cyr + cy * syr));
+                }
+            }
+            if quantize {
+                y = y.round();
+            }
+            if saturate {
+                y = y.clamp(0.0, max);
+            }
+            emit(c, y);
+        }
+    }
+
+    /// The final conversion of one value of [`FrameSimulator::row`] to the `u16` of
+    /// [`SensorModel::simulate_with`]: rounded (when quantization is off) and clipped to the ADC
+    /// range.
+    #[inline]
+    #[must_use]
+    pub fn to_u16(&self, y: f64) -> u16 {
+        // Already whole numbers when quantization is on: no second rounding.
+        let y = if self.model.effects.quantization.enabled { y } else { y.round() };
+        y.clamp(0.0, self.max) as u16
     }
 }
 
@@ -678,6 +784,10 @@ pub fn normal<R: Rng + ?Sized>(rng: &mut R) -> f64 {
     (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
 }
 
+/// Means below this are drawn by Knuth's multiplication of uniforms, the others by PTRS
+/// ([`poisson`]).
+const POISSON_KNUTH_MAX: f64 = 10.0;
+
 /// A Poisson draw with mean `lambda` (0 for lambda <= 0).
 ///
 /// Small means: multiplication of uniforms (Knuth, TAOCP vol. 2). Means of 10 and above: the
@@ -687,15 +797,8 @@ pub fn poisson<R: Rng + ?Sized>(rng: &mut R, lambda: f64) -> f64 {
     if lambda.is_nan() || lambda <= 0.0 {
         return 0.0;
     }
-    if lambda < 10.0 {
-        let limit = (-lambda).exp();
-        let mut k = 0.0;
-        let mut p = rng.random::<f64>();
-        while p > limit {
-            k += 1.0;
-            p *= rng.random::<f64>();
-        }
-        return k;
+    if lambda < POISSON_KNUTH_MAX {
+        return poisson_knuth(rng, (-lambda).exp());
     }
     let slam = lambda.sqrt();
     let b = 0.931 + 2.53 * slam;
@@ -721,14 +824,39 @@ pub fn poisson<R: Rng + ?Sized>(rng: &mut R, lambda: f64) -> f64 {
     }
 }
 
-/// ln(k!) for a non-negative integer k: exact sum below 20, Stirling's series above.
+/// Knuth's Poisson draw for a small mean given as `limit = exp(-mean)` (so a caller drawing
+/// many times with one mean computes the exponential once): the number of uniforms whose
+/// running product stays above `limit`, less one.
+#[inline]
+fn poisson_knuth<R: Rng + ?Sized>(rng: &mut R, limit: f64) -> f64 {
+    let mut k = 0.0;
+    let mut p = rng.random::<f64>();
+    while p > limit {
+        k += 1.0;
+        p *= rng.random::<f64>();
+    }
+    k
+}
+
+/// Below this, ln(k!) is the exact sum of logarithms (from a table), above Stirling's series.
+const LN_FACTORIAL_EXACT: usize = 20;
+
+/// ln(k!) for a non-negative integer k: exact sum below 20 (a table built once with the same
+/// sum, so the values are those of summing at each call), Stirling's series above.
 fn ln_factorial(k: f64) -> f64 {
-    if k < 20.0 {
-        (2..=k as u32).map(|i| f64::from(i).ln()).sum()
+    if k < LN_FACTORIAL_EXACT as f64 {
+        static TABLE: std::sync::OnceLock<[f64; LN_FACTORIAL_EXACT]> = std::sync::OnceLock::new();
+        let table = TABLE.get_or_init(|| std::array::from_fn(|k| ln_factorial_sum(k as u32)));
+        table[k as usize]
     } else {
         let x = k + 1.0;
         (x - 0.5) * x.ln() - x + 0.5 * std::f64::consts::TAU.ln() + 1.0 / (12.0 * x) - 1.0 / (360.0 * x * x * x)
     }
+}
+
+/// ln(k!) as the sum of ln 2 .. ln k.
+fn ln_factorial_sum(k: u32) -> f64 {
+    (2..=k).map(|i| f64::from(i).ln()).sum()
 }
 
 /// The reference paper's affine noise model on 8-bit values, per colour channel:
@@ -926,5 +1054,9 @@ mod tests {
         let exact: f64 = (2..=25u32).map(|i| f64::from(i).ln()).sum();
         assert!((ln_factorial(25.0) - exact).abs() < 1e-9);
         assert!((ln_factorial(19.0) - (2..=19u32).map(|i| f64::from(i).ln()).sum::<f64>()).abs() < 1e-12);
+        // The table holds exactly the sums it replaced.
+        for k in 0..LN_FACTORIAL_EXACT as u32 {
+            assert_eq!(ln_factorial(f64::from(k)).to_bits(), ln_factorial_sum(k).to_bits(), "k {k}");
+        }
     }
 }
