@@ -6,18 +6,20 @@
 //!   preview frame of house 0 (the evaluator's camera `IMX174,focal_mm=4,pitch_deg=-10`, its
 //!   render settings and its day / night light scales) is rendered once, then the day and the
 //!   night image go through radiance -> photons -> noise -> DN -> ISP 8-bit output, `REPS`
-//!   times. Prints process CPU seconds per image (user + sys, from /proc/self/stat, so other
-//!   load on the machine does not count) and a checksum of the 8-bit images.
+//!   times, first by the chain of separate passes (`Frame::mix`, `capture_frame`, `to_8bit`),
+//!   then by the fused `isp::capture_8bit` that the evaluator uses. Prints process CPU seconds
+//!   per image (user + sys, from /proc/self/stat, so other load on the machine does not count)
+//!   and a checksum of the 8-bit images (the two paths must agree).
 //!
-//! `cargo run --release --example sensor_throughput [model FRAMES | stage REPS]` (default: both,
-//! 5 frames and 3 reps). `RAYON_NUM_THREADS` sets the thread count.
+//! `cargo run --release --example sensor_throughput [model FRAMES | stage REPS [fused]]` (default:
+//! both, 5 frames and 3 reps; `fused`: the fused path only, for profiling). `RAYON_NUM_THREADS` sets the thread count.
 
 use std::time::Instant;
 
 use scene_gen::camera_spec::CameraSpec;
 use scene_gen::evaluate::{eval_render_settings, scenario_light_scales};
 use scene_gen::house::{embedded_library, walked_house};
-use scene_gen::isp::{Isp, OutputRule, to_8bit};
+use scene_gen::isp::{Isp, OutputRule, Scenario, capture_8bit, to_8bit};
 use scene_gen::optics::{OpticsInput, agent_velocity};
 use scene_gen::radiometry::capture_frame;
 use scene_gen::render::Renderer;
@@ -81,7 +83,7 @@ fn model_case(frames: u64) {
     );
 }
 
-fn stage_case(reps: u32) {
+fn stage_case(reps: u32, chain: bool) {
     let catalog = Catalog::embedded();
     let spec = CameraSpec::from_inline("IMX174,focal_mm=4,pitch_deg=-10").expect("valid spec");
     let spec = CameraSpec { max_width_px: Some(1936), ..spec };
@@ -103,33 +105,75 @@ fn stage_case(reps: u32) {
         depth_m: &frame.depth_m,
         velocity_m_s: agent_velocity(&spec, pose.yaw_deg, params.speed_m_per_s),
     };
+    let report = |path: &str, images: f64, t0: Instant, cpu0: f64, checksum: u64, means: [f64; 2]| {
+        let (s, cpu) = (t0.elapsed().as_secs_f64(), cpu_s() - cpu0);
+        println!(
+            "stage ({path}): {images} images {}x{} (day + night), {} threads: {:.3} CPU-s/image, {:.1} ms/image \
+             wall; mean 8-bit day {:.2} night {:.2}; checksum {checksum:016x}",
+            camera.width_px,
+            camera.height_px,
+            rayon::current_num_threads(),
+            cpu / images,
+            1e3 * s / images,
+            means[0],
+            means[1],
+        );
+    };
+    let digest = |checksum: u64, grey: &[u8]| {
+        grey.iter().fold(checksum, |h, &v| (h ^ u64::from(v)).wrapping_mul(0x0100_0000_01b3))
+    };
+    let mean = |grey: &[u8]| grey.iter().map(|&v| f64::from(v)).sum::<f64>() / grey.len() as f64 / f64::from(reps);
+    let images = f64::from(2 * reps);
+    println!("render of the frame: {render_cpu:.1} CPU-s, {render_s:.1} s wall");
+
+    // The chain of separate passes (mix, capture_frame, to_8bit), which evaluate used before.
     let (t0, cpu0) = (Instant::now(), cpu_s());
-    let mut checksum = 0u64;
-    let mut means = [0.0f64; 2];
-    for rep in 0..reps {
+    let (mut checksum, mut means) = (0u64, [0.0f64; 2]);
+    for rep in 0..if chain { reps } else { 0 } {
         for (s, sc) in scales.iter().enumerate() {
             let radiance = if s == 0 { frame.mix(sc.2, 0.0) } else { frame.mix(0.0, sc.2) };
             let frame_seed = 1000 * u64::from(rep) + s as u64;
             let cap = capture_frame(&resolved, &camera, &radiance, Some(optics), gains[s], 0, frame_seed);
             let grey = to_8bit(&cap, OutputRule::Isp, &isps[s]);
-            checksum = grey.iter().fold(checksum, |h, &v| (h ^ u64::from(v)).wrapping_mul(0x0100_0000_01b3));
-            means[s] += grey.iter().map(|&v| f64::from(v)).sum::<f64>() / grey.len() as f64 / f64::from(reps);
+            checksum = digest(checksum, &grey);
+            means[s] += mean(&grey);
         }
     }
-    let images = f64::from(2 * reps);
-    let (s, cpu) = (t0.elapsed().as_secs_f64(), cpu_s() - cpu0);
-    println!(
-        "stage: {images} images {}x{} (day + night), {} threads: {:.3} CPU-s/image, {:.1} ms/image wall; \
-         mean 8-bit day {:.2} night {:.2}; checksum {checksum:016x} (render of the frame: {render_cpu:.1} CPU-s, \
-         {render_s:.1} s)",
-        camera.width_px,
-        camera.height_px,
-        rayon::current_num_threads(),
-        cpu / images,
-        1e3 * s / images,
-        means[0],
-        means[1],
-    );
+    if chain {
+        report("chain", images, t0, cpu0, checksum, means);
+    }
+
+    // The fused path evaluate uses now: both scenarios, row by row.
+    let (t0, cpu0) = (Instant::now(), cpu_s());
+    let (mut checksum, mut means) = (0u64, [0.0f64; 2]);
+    for rep in 0..reps {
+        let scenarios: Vec<Scenario<'_>> = scales
+            .iter()
+            .enumerate()
+            .map(|(s, sc)| Scenario {
+                day_weight: if s == 0 { sc.2 } else { 0.0 },
+                night_weight: if s == 0 { 0.0 } else { sc.2 },
+                gain_db: gains[s],
+                frame_seed: 1000 * u64::from(rep) + s as u64,
+                isp: &isps[s],
+            })
+            .collect();
+        let greys = capture_8bit(
+            &resolved,
+            &camera,
+            &frame.day_nit,
+            &frame.night_nit,
+            Some(optics),
+            0,
+            OutputRule::Isp,
+            &scenarios,
+        );
+        for (s, grey) in greys.iter().enumerate() {
+            checksum = digest(checksum, grey);
+            means[s] += mean(grey);
+        }
+    }
+    report("fused", images, t0, cpu0, checksum, means);
 }
 
 fn main() {
@@ -137,10 +181,10 @@ fn main() {
     let n = |d: u64| args.get(1).and_then(|a| a.parse().ok()).unwrap_or(d);
     match args.first().map(String::as_str) {
         Some("model") => model_case(n(5)),
-        Some("stage") => stage_case(n(3) as u32),
+        Some("stage") => stage_case(n(3) as u32, args.get(2).is_none_or(|a| a != "fused")),
         _ => {
             model_case(5);
-            stage_case(3);
+            stage_case(3, true);
         }
     }
 }

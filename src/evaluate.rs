@@ -119,11 +119,10 @@ use crate::detection::plugin::{self, PluginError, PluginRequest};
 use crate::detection::thresholds::{self, Crossing, FrameVisibility, ThresholdConfig};
 use crate::detection::{DetectabilityModel, Detector, DetectorInput, GroundTruthConfig, frame_ground_truth};
 use crate::house::{HouseError, WalkedHouse, embedded_library, walked_house};
-use crate::isp::{Isp, OutputRule, to_8bit};
+use crate::isp::{Isp, OutputRule, Scenario, capture_8bit};
 use crate::lights::{DAY_TARGET_LUX, NIGHT_TARGET_LUX, TARGET_PLANE_M};
 use crate::optics::{OpticsInput, agent_velocity};
 use crate::orb::{FundamentalRansac, Orb, match_and_verify};
-use crate::radiometry::capture_frame;
 use crate::render::{Frame, RenderError, RenderSettings, Renderer, ShadingRate, measure_mean_illuminance};
 use crate::scene::{LightGroup, ObjectClass, THRESHOLD_CLASS_ID, THRESHOLD_CLASS_NAME};
 use crate::sensor::Catalog;
@@ -705,17 +704,38 @@ fn compute(
                 let gt =
                     (role == 2).then(|| frame_ground_truth(&frame, &scene, &camera, &GroundTruthConfig::default()));
                 times[2] += secs(t1);
-                for (s, &(_, _, scale, _)) in scales.iter().enumerate() {
-                    let t1 = Instant::now();
-                    let radiance = if s == 0 { frame.mix(scale, 0.0) } else { frame.mix(0.0, scale) };
-                    let frame_seed = crate::rng::fnv1a64(format!("evaluate/{seed}/{i}/{}", names[s]).as_bytes());
-                    let optics = OpticsInput {
-                        depth_m: &frame.depth_m,
-                        velocity_m_s: agent_velocity(&resolved.spec, pose.yaw_deg, params.speed_m_per_s),
-                    };
-                    let cap = capture_frame(resolved, &camera, &radiance, Some(optics), gains[s], seed, frame_seed);
-                    let grey = to_8bit(&cap, config.output, &isps[s]);
-                    times[1] += secs(t1);
+                // Sensor and ISP: both scenarios' 8-bit images from the one frame.
+                let t1 = Instant::now();
+                let frame_seeds: Vec<u64> = (0..scales.len())
+                    .map(|s| crate::rng::fnv1a64(format!("evaluate/{seed}/{i}/{}", names[s]).as_bytes()))
+                    .collect();
+                let scenarios: Vec<Scenario<'_>> = scales
+                    .iter()
+                    .enumerate()
+                    .map(|(s, &(_, _, scale, _))| Scenario {
+                        day_weight: if s == 0 { scale } else { 0.0 },
+                        night_weight: if s == 0 { 0.0 } else { scale },
+                        gain_db: gains[s],
+                        frame_seed: frame_seeds[s],
+                        isp: &isps[s],
+                    })
+                    .collect();
+                let optics = OpticsInput {
+                    depth_m: &frame.depth_m,
+                    velocity_m_s: agent_velocity(&resolved.spec, pose.yaw_deg, params.speed_m_per_s),
+                };
+                let greys = capture_8bit(
+                    resolved,
+                    &camera,
+                    &frame.day_nit,
+                    &frame.night_nit,
+                    Some(optics),
+                    seed,
+                    config.output,
+                    &scenarios,
+                );
+                times[1] += secs(t1);
+                for (grey, frame_seed) in greys.into_iter().zip(frame_seeds) {
                     if let Some(objects) = &gt {
                         let t1 = Instant::now();
                         out.usable.push(image_usable(&grey) && objects.iter().any(|o| o.counted));
@@ -723,8 +743,8 @@ fn compute(
                             let image: Vec<f32> = grey.iter().map(|&v| f32::from(v)).collect();
                             let input = DetectorInput {
                                 image_dn: &image,
-                                width: cap.width,
-                                height: cap.height,
+                                width: camera.width_px,
+                                height: camera.height_px,
                                 instance_id: &frame.instance_id,
                                 objects,
                                 noise_std_dn: None,
