@@ -1095,6 +1095,59 @@ mod tests {
     }
 
     #[test]
+    fn signal_plus_dark_electrons_are_poisson_of_the_summed_mean() {
+        // K = 1 DN/e, no read noise, no black level, no clipping: DN = the electron count, which
+        // must follow Poisson(QE photons + dark t) exactly, on both sides of the Knuth / PTRS
+        // switch (mean 3.5 and 45.5), with the dark draw's Knuth limit computed once per row (no
+        // hot pixels) and per pixel (hot pixels adding to the dark mean).
+        for (photons, hot) in [(3.0f32, false), (45.0, false), (3.0, true)] {
+            let model = SensorModel {
+                name: "test".into(),
+                quantum_efficiency: 1.0,
+                system_gain_dn_per_e: 1.0,
+                read_noise_e: 0.0,
+                adc_bits: 16,
+                pattern_seed: 1,
+                effects: Effects {
+                    dark_current: DarkCurrent { enabled: true, rate_e_per_s: 50.0 },
+                    quantization: Quantization { enabled: true },
+                    hot_pixels: HotPixels { enabled: hot, fraction: 1.0, max_excess_e_per_s: 1e-9 },
+                    ..Effects::default()
+                },
+            };
+            let (w, h) = (500, 400);
+            let dn = model.simulate(&vec![photons; w * h], w, h, 0.01, 0.0, 8);
+            let lambda = f64::from(photons) + 0.5;
+            let n = dn.len() as f64;
+            let mut counts = std::collections::BTreeMap::new();
+            for &v in &dn {
+                *counts.entry(v).or_insert(0usize) += 1;
+            }
+            // Pearson chi-square over every count with at least 5 expected, the rest pooled.
+            let pmf = |k: u16| (f64::from(k) * lambda.ln() - lambda - ln_factorial(f64::from(k))).exp();
+            let (mut chi2, mut bins, mut pooled_obs, mut pooled_exp) = (0.0, 0, 0.0, 1.0);
+            for k in 0..(lambda * 3.0) as u16 + 20 {
+                let e = n * pmf(k);
+                let o = *counts.get(&k).unwrap_or(&0) as f64;
+                if e >= 5.0 {
+                    chi2 += (o - e).powi(2) / e;
+                    bins += 1;
+                    pooled_exp -= pmf(k);
+                } else {
+                    pooled_obs += o;
+                }
+            }
+            let beyond = dn.iter().filter(|&&v| f64::from(v) >= lambda * 3.0 + 20.0).count() as f64;
+            let e = n * pooled_exp;
+            chi2 += (pooled_obs + beyond - e).powi(2) / e;
+            let dof = f64::from(bins);
+            assert!(chi2 < dof + 5.0 * (2.0 * dof).sqrt(), "mean {lambda}: chi-square {chi2} over {bins} bins");
+            let mean = dn.iter().map(|&v| f64::from(v)).sum::<f64>() / n;
+            assert!((mean - lambda).abs() < 5.0 * (lambda / n).sqrt(), "mean {mean}, expected {lambda}");
+        }
+    }
+
+    #[test]
     fn round_and_floor_match_the_library_bit_for_bit() {
         let special = [
             0.0,
