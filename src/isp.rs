@@ -310,9 +310,10 @@ mod tests {
         assert_eq!(out[1], isp.apply(300.0));
     }
 
-    /// A small camera and a random frame: radiance from both light groups, depth for the
-    /// optics.
-    fn small_frame(spec: CameraSpec) -> (ResolvedCamera, Camera, Vec<[f32; 3]>, Vec<[f32; 3]>, Vec<f32>) {
+    /// A small camera and a random frame: day and night radiance, depth for the optics.
+    type SmallFrame = (ResolvedCamera, Camera, Vec<[f32; 3]>, Vec<[f32; 3]>, Vec<f32>);
+
+    fn small_frame(spec: CameraSpec) -> SmallFrame {
         use rand::Rng;
         let resolved = CameraSpec { max_width_px: Some(48), ..spec }.resolve(&Catalog::embedded()).unwrap();
         let pose = crate::trajectory::Pose { position: glam::Vec3::new(1.0, 2.0, 1.0), yaw_deg: 30.0, time_s: 0.0 };
