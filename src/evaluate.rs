@@ -101,7 +101,11 @@
 //! depend on the thread count. Results are cached per process, keyed by the normalised spec
 //! (its JSON), the seeds and every configuration field (speed, output rule, usable floor,
 //! detector, render settings). [`Evaluation::timing_s`] says where the time went (not
-//! deterministic; the CLI prints it with `--timing`).
+//! deterministic; the CLI prints it with `--timing`). Its `sensor` figure is wall time on the
+//! pose's worker thread: the stage's rows are nested rayon tasks, and a thread waiting for them
+//! may run other poses' rendering meanwhile, so it overstates the stage (docs/BENCHMARKS.md,
+//! "The evaluator's sensor + ISP stage", compares it with a profile). Both scenarios' 8-bit
+//! images come from one fused pass over the frame ([`crate::isp::capture_8bit`]).
 
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::path::{Path, PathBuf};

@@ -34,6 +34,11 @@
 //! A colour capture (the affine path, already 8-bit per channel) is reduced to linear luma
 //! (Rec. 709 weights) first and goes through the same steps with its own black and mid-grey
 //! levels scaled to 8 bits.
+//!
+//! [`to_8bit`] applies the rule to a [`Capture`]; [`capture_8bit`] is the evaluator's fused path
+//! from a rendered frame's radiance to the 8-bit images of its scenarios, byte for byte the same
+//! as [`crate::radiometry::capture_frame`] followed by [`to_8bit`], without the full-frame
+//! intermediate buffers.
 
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
