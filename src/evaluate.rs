@@ -121,7 +121,11 @@
 //! depend on the thread count. Results are cached per process, keyed by the normalised spec
 //! (its JSON), the seeds and every configuration field (speed, output rule, usable floor,
 //! detector, render settings). [`Evaluation::timing_s`] says where the time went (not
-//! deterministic; the CLI prints it with `--timing`).
+//! deterministic; the CLI prints it with `--timing`). Its `sensor` figure is wall time on the
+//! pose's worker thread: the stage's rows are nested rayon tasks, and a thread waiting for them
+//! may run other poses' rendering meanwhile, so it overstates the stage (docs/BENCHMARKS.md,
+//! "The evaluator's sensor + ISP stage", compares it with a profile). Both scenarios' 8-bit
+//! images come from one fused pass over the frame ([`crate::isp::capture_8bit`]).
 
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::path::{Path, PathBuf};
@@ -142,11 +146,10 @@ use crate::detection::{
     DetectabilityModel, Detector, DetectorInput, GroundTruthConfig, NoiseSource, frame_ground_truth,
 };
 use crate::house::{HouseError, WalkedHouse, embedded_library, walked_house};
-use crate::isp::{Isp, OutputRule, to_8bit};
+use crate::isp::{Isp, OutputRule, Scenario, capture_8bit};
 use crate::lights::{DAY_TARGET_LUX, NIGHT_TARGET_LUX, TARGET_PLANE_M};
 use crate::optics::{OpticsInput, agent_velocity};
 use crate::orb::{FundamentalRansac, Orb, match_and_verify};
-use crate::radiometry::capture_frame;
 use crate::render::{Frame, RenderError, RenderSettings, Renderer, ShadingRate, measure_mean_illuminance};
 use crate::scene::{LightGroup, ObjectClass, THRESHOLD_CLASS_ID, THRESHOLD_CLASS_NAME};
 use crate::sensor::Catalog;
@@ -738,17 +741,38 @@ fn compute(
                     (role == 2).then(|| frame_ground_truth(&frame, &scene, &camera, &GroundTruthConfig::default()));
                 times[2] += secs(t1);
                 let detector_seed = crate::rng::fnv1a64(format!("evaluate/detector/{seed}/{i}").as_bytes());
-                for (s, &(_, _, scale, _)) in scales.iter().enumerate() {
-                    let t1 = Instant::now();
-                    let radiance = if s == 0 { frame.mix(scale, 0.0) } else { frame.mix(0.0, scale) };
-                    let frame_seed = crate::rng::fnv1a64(format!("evaluate/{seed}/{i}/{}", names[s]).as_bytes());
-                    let optics = OpticsInput {
-                        depth_m: &frame.depth_m,
-                        velocity_m_s: agent_velocity(&resolved.spec, pose.yaw_deg, params.speed_m_per_s),
-                    };
-                    let cap = capture_frame(resolved, &camera, &radiance, Some(optics), gains[s], seed, frame_seed);
-                    let grey = to_8bit(&cap, config.output, &isps[s]);
-                    times[1] += secs(t1);
+                // Sensor and ISP: both scenarios' 8-bit images from the one frame.
+                let t1 = Instant::now();
+                let frame_seeds: Vec<u64> = (0..scales.len())
+                    .map(|s| crate::rng::fnv1a64(format!("evaluate/{seed}/{i}/{}", names[s]).as_bytes()))
+                    .collect();
+                let scenarios: Vec<Scenario<'_>> = scales
+                    .iter()
+                    .enumerate()
+                    .map(|(s, &(_, _, scale, _))| Scenario {
+                        day_weight: if s == 0 { scale } else { 0.0 },
+                        night_weight: if s == 0 { 0.0 } else { scale },
+                        gain_db: gains[s],
+                        frame_seed: frame_seeds[s],
+                        isp: &isps[s],
+                    })
+                    .collect();
+                let optics = OpticsInput {
+                    depth_m: &frame.depth_m,
+                    velocity_m_s: agent_velocity(&resolved.spec, pose.yaw_deg, params.speed_m_per_s),
+                };
+                let greys = capture_8bit(
+                    resolved,
+                    &camera,
+                    &frame.day_nit,
+                    &frame.night_nit,
+                    Some(optics),
+                    seed,
+                    config.output,
+                    &scenarios,
+                );
+                times[1] += secs(t1);
+                for (s, grey) in greys.into_iter().enumerate() {
                     if let Some(objects) = &gt {
                         let t1 = Instant::now();
                         out.usable.push(image_usable(&grey) && objects.iter().any(|o| o.counted));
@@ -756,8 +780,8 @@ fn compute(
                             let image: Vec<f32> = grey.iter().map(|&v| f32::from(v)).collect();
                             let input = DetectorInput {
                                 image_dn: &image,
-                                width: cap.width,
-                                height: cap.height,
+                                width: camera.width_px,
+                                height: camera.height_px,
                                 instance_id: &frame.instance_id,
                                 objects,
                                 noise: noise_tables[s].as_deref().map_or(NoiseSource::Measured, NoiseSource::ByLevel),

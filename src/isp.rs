@@ -34,11 +34,19 @@
 //! A colour capture (the affine path, already 8-bit per channel) is reduced to linear luma
 //! (Rec. 709 weights) first and goes through the same steps with its own black and mid-grey
 //! levels scaled to 8 bits.
+//!
+//! [`to_8bit`] applies the rule to a [`Capture`]; [`capture_8bit`] is the evaluator's fused path
+//! from a rendered frame's radiance to the 8-bit images of its scenarios, byte for byte the same
+//! as [`crate::radiometry::capture_frame`] followed by [`to_8bit`], without the full-frame
+//! intermediate buffers.
 
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::camera_spec::ResolvedCamera;
-use crate::radiometry::{Capture, photons_per_pixel};
+use crate::camera_spec::{NoiseKind, ResolvedCamera};
+use crate::optics::{OpticsInput, OpticsPlan};
+use crate::radiometry::{Capture, capture_frame, photons_per_pixel};
+use crate::render::{Camera, luminance};
 
 /// Reflectance of the reference grey the digital gain is set on (18 %, the photographic
 /// mid-grey that ISO 2720 reflected-light meters are calibrated to).
@@ -129,17 +137,135 @@ fn luma(c: &[u16]) -> f64 {
 pub fn to_8bit(cap: &Capture, rule: OutputRule, isp: &Isp) -> Vec<u8> {
     match (rule, cap.channels) {
         (OutputRule::TopBits, 3) => cap.dn.chunks_exact(3).map(|c| luma(c).round().clamp(0.0, 255.0) as u8).collect(),
-        (OutputRule::TopBits, _) => {
-            let shift = cap.bits.saturating_sub(8);
-            cap.dn.iter().map(|&v| (v >> shift).min(255) as u8).collect()
-        }
         (OutputRule::Isp, 3) => cap.dn.chunks_exact(3).map(|c| isp.apply(luma(c))).collect(),
-        (OutputRule::Isp, _) => {
-            // One table entry per possible DN: the rule is a pure function of the value.
-            let lut: Vec<u8> = (0..(1u32 << cap.bits.min(16))).map(|v| isp.apply(f64::from(v))).collect();
+        (_, _) => {
+            let lut = grey_lut(rule, cap.bits, isp);
             cap.dn.iter().map(|&v| lut[usize::from(v).min(lut.len() - 1)]).collect()
         }
     }
+}
+
+/// The output byte of every possible DN of a one-channel capture of `bits` bits: both rules are
+/// pure functions of the value there.
+fn grey_lut(rule: OutputRule, bits: u32, isp: &Isp) -> Vec<u8> {
+    let values = 0..(1u32 << bits.min(16));
+    match rule {
+        OutputRule::Isp => values.map(|v| isp.apply(f64::from(v))).collect(),
+        OutputRule::TopBits => {
+            let shift = bits.saturating_sub(8);
+            values.map(|v| (v >> shift).min(255) as u8).collect()
+        }
+    }
+}
+
+/// One scenario of [`capture_8bit`]: the frame's radiance is `day_weight x day + night_weight x
+/// night` (as [`crate::render::Frame::mix`]), captured at `gain_db` with temporal noise
+/// `frame_seed`, and output through `isp`.
+#[derive(Clone, Copy, Debug)]
+pub struct Scenario<'a> {
+    pub day_weight: f32,
+    pub night_weight: f32,
+    pub gain_db: f64,
+    pub frame_seed: u64,
+    pub isp: &'a Isp,
+}
+
+/// The 8-bit images the evaluator sees of one rendered frame, one per scenario: the same bytes
+/// as `to_8bit(&capture_frame(resolved, camera, &mix, optics, gain_db, pattern_seed,
+/// frame_seed), rule, isp)` with `mix` the scenario's [`crate::render::Frame::mix`].
+///
+/// Why a second path: that chain writes five full-frame buffers per image (the mixed RGB
+/// radiance, luminance, photons, DN and bytes, 50 MB at 1936 x 1216, each a fresh allocation
+/// the kernel must zero) and computes the cos^4 fall-off with the camera basis (two sines and
+/// cosines) at every pixel. Here, when the capture is the EMVA model and the optics change
+/// nothing (the evaluator's case), each row goes from radiance to bytes in one pass through
+/// [`crate::sensor::noise::FrameSimulator::row`], rows in parallel, the fall-off computed once
+/// per pixel for all scenarios; only the bytes are written. Other captures take the chain
+/// above.
+///
+/// # Panics
+/// If `day_nit` or `night_nit` is not the camera's pixel count.
+#[must_use]
+#[allow(clippy::too_many_arguments)]
+pub fn capture_8bit(
+    resolved: &ResolvedCamera,
+    camera: &Camera,
+    day_nit: &[[f32; 3]],
+    night_nit: &[[f32; 3]],
+    optics: Option<OpticsInput<'_>>,
+    pattern_seed: u64,
+    rule: OutputRule,
+    scenarios: &[Scenario<'_>],
+) -> Vec<Vec<u8>> {
+    let (w, h) = (camera.width_px as usize, camera.height_px as usize);
+    assert!(day_nit.len() == w * h && night_nit.len() == w * h, "radiance must have one value per pixel");
+    let mix = |d: &[f32; 3], n: &[f32; 3], s: &Scenario<'_>| -> [f32; 3] {
+        std::array::from_fn(|c| d[c] * s.day_weight + n[c] * s.night_weight)
+    };
+    let fused =
+        resolved.spec.noise == NoiseKind::Emva && OpticsPlan::new(resolved, camera, optics.as_ref()).is_identity();
+    if !fused || w == 0 {
+        return scenarios
+            .iter()
+            .map(|s| {
+                let radiance: Vec<[f32; 3]> = day_nit.iter().zip(night_nit).map(|(d, n)| mix(d, n, s)).collect();
+                let cap = capture_frame(resolved, camera, &radiance, optics, s.gain_db, pattern_seed, s.frame_seed);
+                to_8bit(&cap, rule, s.isp)
+            })
+            .collect();
+    }
+    let spec = &resolved.spec;
+    let model = resolved.sensor_model(pattern_seed);
+    let pattern = model.fixed_pattern(w, h);
+    let sims: Vec<_> =
+        scenarios.iter().map(|s| model.frame_simulator(&pattern, spec.exposure_s, s.gain_db, s.frame_seed)).collect();
+    let luts: Vec<Vec<u8>> = scenarios.iter().map(|s| grey_lut(rule, model.adc_bits, s.isp)).collect();
+    let basis = camera.basis();
+    let (f_number, transmittance, pitch_um) =
+        (f64::from(camera.f_number), f64::from(spec.lens_transmittance), f64::from(camera.pixel_pitch_um));
+    let n = scenarios.len();
+    // Row r of scenario s at [(r n + s) w, (r n + s + 1) w): one chunk per row for all scenarios.
+    let mut rows = vec![0u8; n * w * h];
+    rows.par_chunks_mut(n * w).enumerate().for_each_init(
+        || (vec![0f32; w], vec![0f32; w]),
+        |(falloff, photons), (r, out)| {
+            let y = r as f32 + 0.5;
+            // Camera::relative_illumination with the basis computed once (the same values).
+            for (c, v) in falloff.iter_mut().enumerate() {
+                *v = if camera.vignetting {
+                    let d = camera.ray_direction_in(basis, c as f32 + 0.5, y).dot(basis.0);
+                    (d * d) * (d * d)
+                } else {
+                    1.0
+                };
+            }
+            let (day, night) = (&day_nit[r * w..(r + 1) * w], &night_nit[r * w..(r + 1) * w]);
+            for (s, scenario) in scenarios.iter().enumerate() {
+                // radiometry::photon_image of the scenario's luminance.
+                for (((p, d), nt), &fall) in photons.iter_mut().zip(day).zip(night).zip(falloff.iter()) {
+                    let l = luminance(glam::Vec3::from(mix(d, nt, scenario)));
+                    *p = photons_per_pixel(
+                        f64::from(l.max(0.0)),
+                        f_number,
+                        transmittance,
+                        f64::from(fall),
+                        spec.exposure_s,
+                        pitch_um,
+                    ) as f32;
+                }
+                let (sim, lut) = (&sims[s], &luts[s]);
+                let out = &mut out[s * w..(s + 1) * w];
+                sim.row(r, photons, |c, v| out[c] = lut[usize::from(sim.to_u16(v)).min(lut.len() - 1)]);
+            }
+        },
+    );
+    (0..n)
+        .map(|s| {
+            let mut grey = Vec::with_capacity(w * h);
+            rows.chunks_exact(w).skip(s).step_by(n).for_each(|row| grey.extend_from_slice(row));
+            grey
+        })
+        .collect()
 }
 
 #[cfg(test)]
@@ -187,5 +313,92 @@ mod tests {
         let out = to_8bit(&cap, OutputRule::Isp, &isp);
         assert_eq!(out[0], 255);
         assert_eq!(out[1], isp.apply(300.0));
+    }
+
+    /// A small camera and a random frame: day and night radiance, depth for the optics.
+    type SmallFrame = (ResolvedCamera, Camera, Vec<[f32; 3]>, Vec<[f32; 3]>, Vec<f32>);
+
+    fn small_frame(spec: CameraSpec) -> SmallFrame {
+        use rand::Rng;
+        let resolved = CameraSpec { max_width_px: Some(48), ..spec }.resolve(&Catalog::embedded()).unwrap();
+        let pose = crate::trajectory::Pose { position: glam::Vec3::new(1.0, 2.0, 1.0), yaw_deg: 30.0, time_s: 0.0 };
+        let camera = resolved.camera_at(&pose);
+        let n = (camera.width_px * camera.height_px) as usize;
+        let mut rng = crate::rng::stream(9, "test");
+        // Dark to bright (0 to ~30 nit by day): both Poisson branches, clipping at the top.
+        let mut radiance = |scale: f32| -> Vec<[f32; 3]> {
+            (0..n).map(|_| std::array::from_fn(|_| scale * rng.random::<f32>().powi(3))).collect()
+        };
+        let (day, night) = (radiance(30.0), radiance(3.0));
+        let depth = (0..n).map(|i| 0.5 + (i % 7) as f32).collect();
+        (resolved, camera, day, night, depth)
+    }
+
+    /// The chain the fused path replaces: mix, capture_frame, to_8bit.
+    fn chain(
+        r: &ResolvedCamera,
+        camera: &Camera,
+        day: &[[f32; 3]],
+        night: &[[f32; 3]],
+        optics: Option<OpticsInput<'_>>,
+        rule: OutputRule,
+        s: &Scenario<'_>,
+    ) -> Vec<u8> {
+        let mix: Vec<[f32; 3]> = day
+            .iter()
+            .zip(night)
+            .map(|(d, n)| std::array::from_fn(|c| d[c] * s.day_weight + n[c] * s.night_weight))
+            .collect();
+        to_8bit(&capture_frame(r, camera, &mix, optics, s.gain_db, 3, s.frame_seed), rule, s.isp)
+    }
+
+    #[test]
+    fn fused_capture_gives_the_bytes_of_the_chain() {
+        let cases = [
+            ("IMX174,focal_mm=4,pitch_deg=-10", OutputRule::Isp),
+            ("IMX174,focal_mm=4,vignetting=false", OutputRule::Isp),
+            ("IMX174,focal_mm=6", OutputRule::TopBits),
+            // Not fused (optics that change the image, the affine noise): the chain itself.
+            ("IMX174,focal_mm=4,motion_blur=true,motion_speed_m_s=3", OutputRule::Isp),
+            ("IMX174,focal_mm=4,noise=affine", OutputRule::Isp),
+        ];
+        for (text, rule) in cases {
+            let (r, camera, day, night, depth) = small_frame(CameraSpec::from_inline(text).unwrap());
+            let channels = if r.spec.noise == crate::camera_spec::NoiseKind::Affine { 3 } else { 1 };
+            let isps = [Isp::for_scenario(&r, 5.0, 20.0, channels), Isp::for_scenario(&r, 15.0, 2.0, channels)];
+            let scenarios = [
+                Scenario { day_weight: 1.0, night_weight: 0.0, gain_db: 5.0, frame_seed: 11, isp: &isps[0] },
+                Scenario { day_weight: 0.0, night_weight: 1.3, gain_db: 15.0, frame_seed: 12, isp: &isps[1] },
+                Scenario { day_weight: 0.7, night_weight: 0.2, gain_db: 0.0, frame_seed: 13, isp: &isps[0] },
+            ];
+            let optics = OpticsInput { depth_m: &depth, velocity_m_s: glam::Vec3::new(1.0, 0.5, 0.0) };
+            let fused = capture_8bit(&r, &camera, &day, &night, Some(optics), 3, rule, &scenarios);
+            assert_eq!(fused.len(), scenarios.len());
+            for (s, grey) in scenarios.iter().zip(&fused) {
+                let want = chain(&r, &camera, &day, &night, Some(optics), rule, s);
+                assert_eq!(grey, &want, "{text}: scenario {s:?}");
+                // Not a constant image: the comparison means something.
+                assert!(grey.iter().any(|&v| v != grey[0]), "{text}");
+            }
+        }
+    }
+
+    #[test]
+    fn fused_capture_is_the_same_at_any_thread_count() {
+        let (r, camera, day, night, _) = small_frame(CameraSpec::from_inline("IMX174,focal_mm=4").unwrap());
+        let isp = Isp::for_scenario(&r, 15.0, 2.0, 1);
+        let scenarios = [Scenario { day_weight: 0.0, night_weight: 1.0, gain_db: 15.0, frame_seed: 5, isp: &isp }];
+        let run = |threads| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap()
+                .install(|| capture_8bit(&r, &camera, &day, &night, None, 1, OutputRule::Isp, &scenarios))
+        };
+        let one = run(1);
+        assert_eq!(one, run(3));
+        // A different frame seed gives different noise.
+        let other = [Scenario { frame_seed: 6, ..scenarios[0] }];
+        assert_ne!(one, capture_8bit(&r, &camera, &day, &night, None, 1, OutputRule::Isp, &other));
     }
 }
