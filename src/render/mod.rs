@@ -271,30 +271,6 @@ pub struct Frame {
 }
 
 impl Frame {
-    /// The frame of `w x h` finished pixels in row order.
-    fn from_pixels<'p>(w: u32, h: u32, pixels: impl ExactSizeIterator<Item = &'p PixelOut>) -> Frame {
-        let n = pixels.len();
-        let mut frame = Frame {
-            width: w,
-            height: h,
-            day_nit: Vec::with_capacity(n),
-            night_nit: Vec::with_capacity(n),
-            depth_m: Vec::with_capacity(n),
-            instance_id: Vec::with_capacity(n),
-            class_id: Vec::with_capacity(n),
-            normal: Vec::with_capacity(n),
-        };
-        for p in pixels {
-            frame.day_nit.push(p.radiance[0].to_array());
-            frame.night_nit.push(p.radiance[1].to_array());
-            frame.depth_m.push(p.depth_m);
-            frame.instance_id.push(p.instance_id);
-            frame.class_id.push(p.class_id);
-            frame.normal.push(p.normal.to_array());
-        }
-        frame
-    }
-
     /// Buffer index of pixel (x, y).
     #[must_use]
     pub fn index(&self, x: u32, y: u32) -> usize {
@@ -521,8 +497,9 @@ impl<'a> Renderer<'a> {
     fn render_tiled(&self, camera: &Camera, job: Job<'_>) -> Result<Frame, RenderError> {
         camera.validate()?;
         let (w, h) = (camera.width_px, camera.height_px);
-        let pixels = self.trace_grid(camera, (w, h), |x, y| (x, y), job, |pixel, _| pixel);
-        Ok(Frame::from_pixels(w, h, pixels.iter()))
+        let mut frame = Frame::blank(w, h);
+        self.trace_grid(camera, (w, h), |x, y| (x, y), job, frame.bands());
+        Ok(frame)
     }
 
     /// [`ShadingRate::Decoupled`]: the anchors first (shaded in full, in tiles of anchors), then
@@ -539,16 +516,15 @@ impl<'a> Renderer<'a> {
             pixels: Vec::new(),
             guides: Vec::new(),
         };
-        let anchors = self.trace_grid(
-            camera,
-            (grid.cols, grid.rows),
-            |cx, cy| (grid.coord(cx, w), grid.coord(cy, h)),
-            Job::Shade(None),
-            |pixel, guide| (pixel, guide),
-        );
+        let mut anchors = vec![(PixelOut::default(), None); grid.cols as usize * grid.rows as usize];
+        let bands: Vec<&mut [(PixelOut, Option<Guide>)]> =
+            anchors.chunks_mut(grid.cols as usize * tile::TILE as usize).collect();
+        let at = |cx, cy| (grid.coord(cx, w), grid.coord(cy, h));
+        self.trace_grid(camera, (grid.cols, grid.rows), at, Job::Shade(None), bands);
         (grid.pixels, grid.guides) = anchors.into_iter().unzip();
-        let pixels = self.trace_grid(camera, (w, h), |x, y| (x, y), Job::Shade(Some(&grid)), |pixel, _| pixel);
-        Ok(Frame::from_pixels(w, h, pixels.iter()))
+        let mut frame = Frame::blank(w, h);
+        self.trace_grid(camera, (w, h), |x, y| (x, y), Job::Shade(Some(&grid)), frame.bands());
+        Ok(frame)
     }
 
     /// Depth, instance and class ids and normals of `camera`'s view, exactly as [`Renderer::render`]
