@@ -142,8 +142,8 @@ pub enum ConfigError {
         #[source]
         source: std::io::Error,
     },
-    #[error("{}:{line}: {message}", path.display())]
-    Toml { path: PathBuf, line: usize, message: String },
+    #[error("{}:{line}: {}{message}", path.display(), key.as_ref().map(|k| format!("{k}: ")).unwrap_or_default())]
+    Toml { path: PathBuf, line: usize, key: Option<String>, message: String },
     #[error("{}{}: field {field}: {why}", path.display(), line.map(|l| format!(":{l}")).unwrap_or_default())]
     Field { path: PathBuf, line: Option<usize>, field: String, why: String },
 }
@@ -270,6 +270,28 @@ fn line_of_field(text: &str, field: &str) -> Option<usize> {
         .map(|i| i + 1)
 }
 
+/// The dotted key set on 1-based `line` of `text` (`ga.population` for `population = ...`
+/// under `[ga]`), or the table a header line opens; `None` for any other line. TOML's own
+/// errors give the position but, for a wrongly typed value, not the key.
+fn key_path_at_line(text: &str, line: usize) -> Option<String> {
+    let mut table = String::new();
+    for (i, l) in text.lines().enumerate().take(line) {
+        let l = l.trim();
+        let header = l.strip_prefix('[').map(|h| h.trim_start_matches('[').split(']').next().unwrap_or("").trim());
+        if let Some(h) = header {
+            table = h.to_string();
+            if i + 1 == line {
+                return (!table.is_empty()).then(|| table.clone());
+            }
+        } else if i + 1 == line {
+            let key = l.split_once('=')?.0.trim().trim_matches('"');
+            return (!key.is_empty())
+                .then(|| if table.is_empty() { key.to_string() } else { format!("{table}.{key}") });
+        }
+    }
+    None
+}
+
 impl OptimizeConfig {
     /// Reads the file at `path` over the defaults.
     ///
@@ -287,10 +309,14 @@ impl OptimizeConfig {
     /// [`ConfigError::Toml`] with the line, or [`ConfigError::Field`] from
     /// [`OptimizeConfig::validate`].
     pub fn from_toml(text: &str, path: &Path) -> Result<OptimizeConfig, ConfigError> {
-        let config: OptimizeConfig = toml::from_str(text).map_err(|e| ConfigError::Toml {
-            path: path.to_path_buf(),
-            line: line_of_offset(text, e.span().map_or(0, |s| s.start)),
-            message: e.message().trim().to_string(),
+        let config: OptimizeConfig = toml::from_str(text).map_err(|e| {
+            let line = line_of_offset(text, e.span().map_or(0, |s| s.start));
+            ConfigError::Toml {
+                path: path.to_path_buf(),
+                line,
+                key: key_path_at_line(text, line),
+                message: e.message().trim().to_string(),
+            }
         })?;
         config.validate().map_err(|(field, why)| ConfigError::Field {
             path: path.to_path_buf(),
@@ -455,5 +481,10 @@ mod tests {
         assert!(e.to_string().contains("genes.focal_mm.min"), "{e}");
         let e = OptimizeConfig::from_toml("[genes.height_m]\nmin = 0.5\n", Path::new("c.toml")).unwrap_err();
         assert!(e.to_string().contains("max"), "{e}");
+        // A wrongly typed value: TOML gives only the position; the message adds the key path.
+        let e = OptimizeConfig::from_toml("seed = 1\n[ga]\npopulation = \"ten\"\n", Path::new("c.toml")).unwrap_err();
+        assert!(e.to_string().starts_with("c.toml:3: ga.population: "), "{e}");
+        let e = OptimizeConfig::from_toml("seed = \"x\"\n", Path::new("c.toml")).unwrap_err();
+        assert!(e.to_string().starts_with("c.toml:1: seed: "), "{e}");
     }
 }
