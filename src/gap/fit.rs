@@ -579,7 +579,7 @@ impl Evaluator {
     }
 }
 
-/// Frames of at least this many rows have their candidates screened (see [`Screen`]). Below it
+/// Frames of at least this many rows have their candidates screened (see `Screen`). Below it
 /// (the hidden-effect sets, the 160x120 crop of set 003) every candidate is simulated in full.
 pub const SCREEN_MIN_ROWS: usize = 240;
 

@@ -408,7 +408,7 @@ fn group_slope(acq: &Acquisition, group: usize) -> Option<f64> {
 
 /// Loads several descriptors of one camera, taken at different gains, as one acquisition: file
 /// `i` becomes gain group `i`. EMVA 1288 descriptors do not state the gain, so it is measured:
-/// the ratio of each file's response slope to the first file's ([`group_slope`]), the first file
+/// the ratio of each file's response slope to the first file's (`group_slope`), the first file
 /// at 0 dB. The workflow refines these ratios as nuisance parameters.
 pub fn load_acquisitions(paths: &[PathBuf], options: &GapOptions) -> Result<Acquisition, GapError> {
     let first = paths.first().ok_or_else(|| GapError::Unusable { path: PathBuf::new(), message: "no input".into() })?;

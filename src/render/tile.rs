@@ -1,11 +1,12 @@
-//! Frames of one camera ray per pixel, traced in 8 x 8 pixel tiles.
+//! Every frame is traced in 8 x 8 pixel tiles.
 //!
-//! A tile's camera rays go through the BVH as one [`RayPacket`] (coherent rays from one
-//! origin: about twice the speed of one ray at a time, docs/BENCHMARKS.md); each pixel is then
-//! shaded as it would be alone, from its own random stream, so a tiled
-//! frame is the same frame. Shadow rays stay one at a time: traced as packets per light and
-//! tile they were slower on the evaluator's frames (rect-light samples and culled lights give
-//! small, spread packets; measured in docs/BENCHMARKS.md).
+//! A tile's camera rays go through the BVH as one [`RayPacket`] (coherent rays from one origin:
+//! about twice the speed of one ray at a time, docs/BENCHMARKS.md): the centre rays, then, with
+//! `n x n` samples per pixel, one packet per sample. Each pixel is shaded as it would be alone,
+//! from its own random stream in its own order, so a tiled frame is bit for bit the frame a
+//! pixel-by-pixel trace gives, at any thread count. Shadow rays stay one at a time: traced as
+//! packets per light and tile they were slower on real frames (rect-light samples and culled
+//! lights give small, spread packets; measured in docs/BENCHMARKS.md).
 
 use glam::Vec3;
 use rayon::prelude::*;
@@ -68,7 +69,7 @@ impl BandSink for FrameBand<'_> {
 }
 
 impl Frame {
-    /// A `w x h` frame (zeroed buffers) split into bands of `TILE` rows for [`Renderer::trace_grid`].
+    /// A `w x h` frame of zeroed buffers, for [`Renderer::trace_grid`] to fill.
     pub(super) fn blank(w: u32, h: u32) -> Frame {
         let n = w as usize * h as usize;
         Frame {

@@ -743,7 +743,7 @@ fn ziggurat() -> &'static Ziggurat {
     })
 }
 
-/// A standard normal draw by the ziggurat method (Marsaglia and Tsang 2000, see [`ZIG_R`]):
+/// A standard normal draw by the ziggurat method (Marsaglia and Tsang 2000, see `ZIG_R`):
 /// exact in distribution; about 99 % of draws cost one 64-bit word, a table look-up and a
 /// compare (no logarithm, no trigonometry). The noise model's draws use it; [`normal`] stays the
 /// Box-Muller sampler for the callers that rely on its stream.
