@@ -160,8 +160,10 @@ impl PacketBounds {
             let far_a = (hi[axis] - self.origin_max[axis], hi[axis] - self.origin_min[axis]);
             let products = |a: (f32, f32)| [a.0 * i0, a.0 * i1, a.1 * i0, a.1 * i1];
             let (p_lo, p_hi) = (products(near_a), products(far_a));
-            let min4 = |p: [f32; 4]| p[0].min(p[1]).min(p[2]).min(p[3]);
-            let max4 = |p: [f32; 4]| p[0].max(p[1]).max(p[2]).max(p[3]);
+            // Finite products (a bounded axis has finite, non-zero inverse directions), so plain
+            // comparisons suffice.
+            let min4 = |p: [f32; 4]| p.into_iter().fold(f32::INFINITY, |a, t| if t < a { t } else { a });
+            let max4 = |p: [f32; 4]| p.into_iter().fold(f32::NEG_INFINITY, |a, t| if t > a { t } else { a });
             // Entry is the nearer plane, exit the farther, whichever way the rays point.
             let (enter_lo, exit_hi) = if i0 > 0.0 { (min4(p_lo), max4(p_hi)) } else { (min4(p_hi), max4(p_lo)) };
             enter = enter.max(enter_lo - enter_lo.abs() * INTERVAL_PAD);
@@ -193,14 +195,19 @@ fn ray_enters(node: &CwBvhNode, child: usize, packet: &RayPacket, r: usize, tmax
     let (x0, x1) = pick(node.child_min_x[child], node.child_max_x[child], inv.x < 0.0);
     let (y0, y1) = pick(node.child_min_y[child], node.child_max_y[child], inv.y < 0.0);
     let (z0, z1) = pick(node.child_min_z[child], node.child_max_z[child], inv.z < 0.0);
-    let near = (x0 * scaled_inv.x + scaled_origin.x)
-        .max(y0 * scaled_inv.y + scaled_origin.y)
-        .max(z0 * scaled_inv.z + scaled_origin.z)
-        .max(NODE_TMIN);
-    let far = (x1 * scaled_inv.x + scaled_origin.x)
-        .min(y1 * scaled_inv.y + scaled_origin.y)
-        .min(z1 * scaled_inv.z + scaled_origin.z)
-        .min(tmax);
+    // Folded from the finite bounds with plain comparisons: a NaN plane distance (0 x inf, an
+    // axis-parallel ray on a box face) is skipped, as `f32::max` would skip it, but this
+    // compiles to one `maxss` / `minss` each instead of NaN-aware selects.
+    let larger = |acc: f32, t: f32| if t > acc { t } else { acc };
+    let smaller = |acc: f32, t: f32| if t < acc { t } else { acc };
+    let near =
+        [x0 * scaled_inv.x + scaled_origin.x, y0 * scaled_inv.y + scaled_origin.y, z0 * scaled_inv.z + scaled_origin.z]
+            .into_iter()
+            .fold(NODE_TMIN, larger);
+    let far =
+        [x1 * scaled_inv.x + scaled_origin.x, y1 * scaled_inv.y + scaled_origin.y, z1 * scaled_inv.z + scaled_origin.z]
+            .into_iter()
+            .fold(tmax, smaller);
     (near <= far).then_some(near)
 }
 
