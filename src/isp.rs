@@ -170,6 +170,14 @@ pub struct Scenario<'a> {
     pub isp: &'a Isp,
 }
 
+impl Scenario<'_> {
+    /// The scenario's radiance of one pixel from its day and night radiance.
+    #[must_use]
+    pub fn mix(&self, day: &[f32; 3], night: &[f32; 3]) -> [f32; 3] {
+        std::array::from_fn(|c| day[c] * self.day_weight + night[c] * self.night_weight)
+    }
+}
+
 /// The 8-bit images the evaluator sees of one rendered frame, one per scenario: the same bytes
 /// as `to_8bit(&capture_frame(resolved, camera, &mix, optics, gain_db, pattern_seed,
 /// frame_seed), rule, isp)` with `mix` the scenario's [`crate::render::Frame::mix`].
@@ -199,16 +207,13 @@ pub fn capture_8bit(
 ) -> Vec<Vec<u8>> {
     let (w, h) = (camera.width_px as usize, camera.height_px as usize);
     assert!(day_nit.len() == w * h && night_nit.len() == w * h, "radiance must have one value per pixel");
-    let mix = |d: &[f32; 3], n: &[f32; 3], s: &Scenario<'_>| -> [f32; 3] {
-        std::array::from_fn(|c| d[c] * s.day_weight + n[c] * s.night_weight)
-    };
     let fused =
         resolved.spec.noise == NoiseKind::Emva && OpticsPlan::new(resolved, camera, optics.as_ref()).is_identity();
     if !fused || w == 0 {
         return scenarios
             .iter()
             .map(|s| {
-                let radiance: Vec<[f32; 3]> = day_nit.iter().zip(night_nit).map(|(d, n)| mix(d, n, s)).collect();
+                let radiance: Vec<[f32; 3]> = day_nit.iter().zip(night_nit).map(|(d, n)| s.mix(d, n)).collect();
                 let cap = capture_frame(resolved, camera, &radiance, optics, s.gain_db, pattern_seed, s.frame_seed);
                 to_8bit(&cap, rule, s.isp)
             })
@@ -230,20 +235,14 @@ pub fn capture_8bit(
         || (vec![0f32; w], vec![0f32; w]),
         |(falloff, photons), (r, out)| {
             let y = r as f32 + 0.5;
-            // Camera::relative_illumination with the basis computed once (the same values).
             for (c, v) in falloff.iter_mut().enumerate() {
-                *v = if camera.vignetting {
-                    let d = camera.ray_direction_in(basis, c as f32 + 0.5, y).dot(basis.0);
-                    (d * d) * (d * d)
-                } else {
-                    1.0
-                };
+                *v = camera.relative_illumination_in(basis, c as f32 + 0.5, y);
             }
             let (day, night) = (&day_nit[r * w..(r + 1) * w], &night_nit[r * w..(r + 1) * w]);
             for (s, scenario) in scenarios.iter().enumerate() {
                 // radiometry::photon_image of the scenario's luminance.
                 for (((p, d), nt), &fall) in photons.iter_mut().zip(day).zip(night).zip(falloff.iter()) {
-                    let l = luminance(glam::Vec3::from(mix(d, nt, scenario)));
+                    let l = luminance(glam::Vec3::from(scenario.mix(d, nt)));
                     *p = photons_per_pixel(
                         f64::from(l.max(0.0)),
                         f_number,
@@ -344,11 +343,7 @@ mod tests {
         rule: OutputRule,
         s: &Scenario<'_>,
     ) -> Vec<u8> {
-        let mix: Vec<[f32; 3]> = day
-            .iter()
-            .zip(night)
-            .map(|(d, n)| std::array::from_fn(|c| d[c] * s.day_weight + n[c] * s.night_weight))
-            .collect();
+        let mix: Vec<[f32; 3]> = day.iter().zip(night).map(|(d, n)| s.mix(d, n)).collect();
         to_8bit(&capture_frame(r, camera, &mix, optics, s.gain_db, 3, s.frame_seed), rule, s.isp)
     }
 

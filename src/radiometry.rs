@@ -58,6 +58,7 @@ pub fn photons_per_pixel(
 #[must_use]
 pub fn photon_image(camera: &Camera, luminance_nit: &[f32], transmittance: f32, exposure_s: f64) -> Vec<f32> {
     let w = camera.width_px as usize;
+    let basis = camera.basis();
     luminance_nit
         .iter()
         .enumerate()
@@ -67,7 +68,7 @@ pub fn photon_image(camera: &Camera, luminance_nit: &[f32], transmittance: f32, 
                 f64::from(l.max(0.0)),
                 f64::from(camera.f_number),
                 f64::from(transmittance),
-                f64::from(camera.relative_illumination(x, y)),
+                f64::from(camera.relative_illumination_in(basis, x, y)),
                 exposure_s,
                 f64::from(camera.pixel_pitch_um),
             ) as f32

@@ -120,11 +120,17 @@ impl Camera {
     /// `(px, py)`: `cos^4` of the off-axis angle with [`Camera::vignetting`], else 1.
     #[must_use]
     pub fn relative_illumination(&self, px: f32, py: f32) -> f32 {
+        self.relative_illumination_in(self.basis(), px, py)
+    }
+
+    /// [`Camera::relative_illumination`] with the [`Camera::basis`] computed once by the caller
+    /// (a whole image: the basis costs two sines and cosines per call).
+    #[must_use]
+    pub fn relative_illumination_in(&self, basis: (Vec3, Vec3, Vec3), px: f32, py: f32) -> f32 {
         if !self.vignetting {
             return 1.0;
         }
-        let (forward, _, _) = self.basis();
-        let c = self.ray_direction(px, py).dot(forward);
+        let c = self.ray_direction_in(basis, px, py).dot(basis.0);
         (c * c) * (c * c)
     }
 }
