@@ -76,12 +76,6 @@ impl RayPacket {
         self.len == 0
     }
 
-    /// Whether the packet holds [`PACKET_RAYS`] rays.
-    #[must_use]
-    pub fn is_full(&self) -> bool {
-        self.len == PACKET_RAYS
-    }
-
     /// Removes every ray.
     pub fn clear(&mut self) {
         self.len = 0;

@@ -500,13 +500,7 @@ impl SensorModel {
         frame_seed: u64,
     ) -> Vec<u16> {
         let sim = self.frame_simulator(pattern, exposure_s, gain_db, frame_seed);
-        assert_eq!(photons.len(), sim.width * sim.height, "photon image size must be width x height");
-        let mut out = vec![0u16; photons.len()];
-        out.par_chunks_mut(sim.width.max(1))
-            .zip(photons.par_chunks(sim.width.max(1)))
-            .enumerate()
-            .for_each(|(r, (row_out, row_photons))| sim.row(r, row_photons, |c, y| row_out[c] = sim.to_u16(y)));
-        out
+        sim.frame(photons, |y| sim.to_u16(y))
     }
 
     /// The frame before the final conversion to `u16`: rounded and clipped only when the
@@ -523,14 +517,7 @@ impl SensorModel {
         gain_db: f64,
         frame_seed: u64,
     ) -> Vec<f64> {
-        let sim = self.frame_simulator(pattern, exposure_s, gain_db, frame_seed);
-        assert_eq!(photons.len(), sim.width * sim.height, "photon image size must be width x height");
-        let mut out = vec![0f64; photons.len()];
-        out.par_chunks_mut(sim.width.max(1))
-            .zip(photons.par_chunks(sim.width.max(1)))
-            .enumerate()
-            .for_each(|(r, (row_out, row_photons))| sim.row(r, row_photons, |c, y| row_out[c] = y));
-        out
+        self.frame_simulator(pattern, exposure_s, gain_db, frame_seed).frame(photons, |y| y)
     }
 
     /// The per-frame constants of one simulated frame, so that callers can simulate it row by
@@ -613,6 +600,20 @@ pub struct FrameSimulator<'a> {
 }
 
 impl FrameSimulator<'_> {
+    /// Every row of the frame of `photons`, rows in parallel, each value through `convert`.
+    ///
+    /// # Panics
+    /// If `photons.len()` differs from the frame's size.
+    fn frame<T: Copy + Default + Send>(&self, photons: &[f32], convert: impl Fn(f64) -> T + Sync) -> Vec<T> {
+        assert_eq!(photons.len(), self.width * self.height, "photon image size must be width x height");
+        let mut out = vec![T::default(); photons.len()];
+        out.par_chunks_mut(self.width.max(1))
+            .zip(photons.par_chunks(self.width.max(1)))
+            .enumerate()
+            .for_each(|(r, (row_out, row_photons))| self.row(r, row_photons, |c, y| row_out[c] = convert(y)));
+        out
+    }
+
     /// Simulates row `r` from its mean photons per pixel (`photons.len()` = width), handing
     /// each pixel's value (before the final conversion, as [`SensorModel::simulate_dn_with`]) to
     /// `emit(column, value)` in column order.
