@@ -116,8 +116,15 @@ impl Isp {
     /// Output byte of one linear value (capture units).
     #[must_use]
     pub fn apply(&self, value: f64) -> u8 {
+        self.level(value).round().clamp(0.0, 255.0) as u8
+    }
+
+    /// The continuous output level in [0, 255] of one linear value, before rounding (what
+    /// [`Isp::apply`] rounds; the detector's noise table carries noise through it).
+    #[must_use]
+    pub fn level(&self, value: f64) -> f64 {
         let x = (MID_GREY_REFLECTANCE * (value - self.black) / self.mid_grey_signal).clamp(0.0, 1.0);
-        (255.0 * srgb_encode(x)).round().clamp(0.0, 255.0) as u8
+        255.0 * srgb_encode(x)
     }
 }
 
@@ -125,6 +132,12 @@ impl Isp {
 #[must_use]
 pub fn srgb_encode(x: f64) -> f64 {
     if x <= 0.003_130_8 { 12.92 * x } else { 1.055 * x.powf(1.0 / 2.4) - 0.055 }
+}
+
+/// Inverse of [`srgb_encode`] (IEC 61966-2-1), encoded [0, 1] to linear [0, 1].
+#[must_use]
+pub fn srgb_decode(e: f64) -> f64 {
+    if e <= 0.040_45 { e / 12.92 } else { ((e + 0.055) / 1.055).powf(2.4) }
 }
 
 /// Rec. 709 luma of a linear RGB triple.
@@ -272,6 +285,14 @@ mod tests {
     use super::*;
     use crate::camera_spec::CameraSpec;
     use crate::sensor::Catalog;
+
+    #[test]
+    fn srgb_decode_inverts_the_encoding() {
+        for i in 0..=100 {
+            let x = f64::from(i) / 100.0;
+            assert!((srgb_decode(srgb_encode(x)) - x).abs() < 1e-9, "{x}");
+        }
+    }
 
     #[test]
     fn srgb_curve_and_mid_grey() {
