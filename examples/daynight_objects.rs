@@ -32,7 +32,7 @@ use scene_gen::detection::output_noise::output_noise_by_level;
 use scene_gen::detection::{
     DetectabilityModel, Detector, DetectorInput, GroundTruthConfig, GtObject, NoiseSource, frame_ground_truth,
 };
-use scene_gen::evaluate::{eval_render_settings, scenario_light_scales};
+use scene_gen::evaluate::{capture_seed, detector_seed, eval_render_settings, scenario_light_scales};
 use scene_gen::house::{embedded_library, walked_house};
 use scene_gen::isp::{Isp, OutputRule, to_8bit};
 use scene_gen::optics::{OpticsInput, agent_velocity};
@@ -121,7 +121,7 @@ fn main() {
             let mut zeros = [0.0; 2];
             for (s, &(_, _, scale, _)) in scales.iter().enumerate() {
                 let radiance = if s == 0 { frame.mix(scale, 0.0) } else { frame.mix(0.0, scale) };
-                let frame_seed = scene_gen::rng::fnv1a64(format!("evaluate/{seed}/{i}/{}", names[s]).as_bytes());
+                let frame_seed = capture_seed(seed, i, names[s]);
                 let optics = || OpticsInput {
                     depth_m: &frame.depth_m,
                     velocity_m_s: agent_velocity(&resolved.spec, pose.yaw_deg, params.speed_m_per_s),
@@ -167,7 +167,7 @@ fn main() {
                 });
                 let first = c.annotations.len() as u64 + 1;
                 c.annotations.extend(to_annotations(&gt, image_id, first));
-                let detector_seed = scene_gen::rng::fnv1a64(format!("evaluate/detector/{seed}/{i}").as_bytes());
+                let detector_seed = detector_seed(seed, i);
                 let by_table =
                     DetectorInput { noise: NoiseSource::ByLevel(&table), frame_seed: detector_seed, ..input };
                 for (m, d) in [model, no_fp].iter().zip(dets.iter_mut()) {

@@ -216,6 +216,20 @@ pub fn eval_render_settings() -> RenderSettings {
     }
 }
 
+/// Temporal-noise seed of the capture of pose `pose` of house `seed` in scenario `scenario`
+/// (`"day"`, `"night"`): what the evaluator uses, for tools that replay its frames.
+#[must_use]
+pub fn capture_seed(seed: u64, pose: usize, scenario: &str) -> u64 {
+    crate::rng::fnv1a64(format!("evaluate/{seed}/{pose}/{scenario}").as_bytes())
+}
+
+/// The built-in detector's draw seed for pose `pose` of house `seed`, one for both scenarios
+/// (common random numbers).
+#[must_use]
+pub fn detector_seed(seed: u64, pose: usize) -> u64 {
+    crate::rng::fnv1a64(format!("evaluate/detector/{seed}/{pose}").as_bytes())
+}
+
 /// Weights of the fitness terms.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct FitnessWeights {
@@ -744,12 +758,10 @@ fn compute(
                 let gt =
                     (role == 2).then(|| frame_ground_truth(&frame, &scene, &camera, &GroundTruthConfig::default()));
                 times[2] += secs(t1);
-                let detector_seed = crate::rng::fnv1a64(format!("evaluate/detector/{seed}/{i}").as_bytes());
+                let detector_seed = detector_seed(seed, i);
                 // Sensor and ISP: both scenarios' 8-bit images from the one frame.
                 let t1 = Instant::now();
-                let frame_seeds: Vec<u64> = (0..scales.len())
-                    .map(|s| crate::rng::fnv1a64(format!("evaluate/{seed}/{i}/{}", names[s]).as_bytes()))
-                    .collect();
+                let frame_seeds: Vec<u64> = (0..scales.len()).map(|s| capture_seed(seed, i, names[s])).collect();
                 let scenarios: Vec<Scenario<'_>> = scales
                     .iter()
                     .enumerate()
