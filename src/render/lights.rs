@@ -11,11 +11,12 @@
 //! * rect (one-sided Lambertian emitter of luminance `L`): `E = sum L cos(theta) cos(theta') dA / d^2`
 //!   over stratified jittered area samples, one shadow ray each (soft shadows).
 
+use std::cell::Cell;
 use std::f32::consts::PI;
 
 use glam::Vec3;
 
-use super::accel::Accel;
+use super::accel::{Accel, NO_TRIANGLE};
 use super::{GroupRgb, Sampler, Strata, group_index};
 use crate::scene::{Light, LightKind};
 
@@ -33,6 +34,45 @@ fn unit_luminance_tint(color: [f32; 3]) -> Vec3 {
     let c = Vec3::from(color).max(Vec3::ZERO);
     let y = luminance(c);
     if y > 0.0 && y.is_finite() { c / y } else { Vec3::ZERO }
+}
+
+/// Lights (points, then directionals, then rects, in [`LightSet`] order) that get a
+/// [`Blockers`] slot; a house has a few dozen, and further lights are traced without a hint.
+const BLOCKER_SLOTS: usize = 128;
+
+/// Per light, the triangle that blocked the last shadow ray traced to it, tried first on the
+/// next one ([`Accel::blocker`] says why). A hint never hides a blocker, but it can find one
+/// that the BVH traversal misses on a grazing ray, so its content must not depend on the
+/// thread: one per tile (or per probe), never shared, started empty. What it holds is then a
+/// function of the tile alone, and frames stay the same at any thread count.
+pub struct Blockers {
+    last: [Cell<u32>; BLOCKER_SLOTS],
+}
+
+impl Default for Blockers {
+    fn default() -> Self {
+        Blockers { last: std::array::from_fn(|_| Cell::new(NO_TRIANGLE)) }
+    }
+}
+
+impl Blockers {
+    /// No hints yet.
+    #[must_use]
+    pub fn new() -> Blockers {
+        Blockers::default()
+    }
+
+    /// Whether the shadow ray to light `slot` is blocked, remembering what blocked it.
+    fn occluded(&self, accel: &Accel, slot: usize, origin: Vec3, dir: Vec3, tmax: f32) -> bool {
+        let Some(last) = self.last.get(slot) else { return accel.occluded(origin, dir, tmax) };
+        match accel.blocker(origin, dir, tmax, last.get()) {
+            Some(triangle) => {
+                last.set(triangle);
+                true
+            }
+            None => false,
+        }
+    }
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -189,6 +229,7 @@ impl LightSet {
         rect_strata: Strata,
         cull: f32,
         sampler: &mut Sampler,
+        blockers: &Blockers,
     ) -> GroupRgb {
         // Each culled light's importance, computed once: it is needed for the group totals and
         // again for the roulette. The first `IMPORTANCE_CACHE` lights keep theirs on the stack
@@ -219,17 +260,21 @@ impl LightSet {
             let dist2 = d.length_squared();
             let dist = dist2.sqrt();
             let dir = d / dist;
-            if !accel.occluded(origin, dir, dist - 2.0 * eps) {
+            if !blockers.occluded(accel, i, origin, dir, dist - 2.0 * eps) {
                 e[light.group] += light.rgb_cd * (weight * ns.dot(dir) / dist2);
             }
         }
-        for light in &self.directionals {
-            if directional_importance(light, ng, ns) > 0.0 && !accel.occluded(origin, light.to_light, f32::INFINITY) {
+        for (i, light) in self.directionals.iter().enumerate() {
+            let slot = n_points + i;
+            if directional_importance(light, ng, ns) > 0.0
+                && !blockers.occluded(accel, slot, origin, light.to_light, f32::INFINITY)
+            {
                 e[light.group] += light.rgb_lux * ns.dot(light.to_light);
             }
         }
         let count = rect_samples.max(1);
         let inv_count = 1.0 / count as f32;
+        let first_rect_slot = n_points + self.directionals.len();
         for (i, light) in self.rects.iter().enumerate() {
             let b = importance(n_points + i, &|| rect_importance(light, point, ns));
             let Some(weight) = keep(b, light.group, sampler) else { continue };
@@ -249,7 +294,7 @@ impl LightSet {
                 if cos_surface <= 0.0 || cos_light <= 0.0 || ng.dot(dir) <= 0.0 {
                     continue;
                 }
-                if !accel.occluded(origin, dir, dist - 2.0 * eps) {
+                if !blockers.occluded(accel, first_rect_slot + i, origin, dir, dist - 2.0 * eps) {
                     sum += light.rgb_nit * (cos_surface * cos_light / dist2);
                 }
             }
@@ -365,7 +410,7 @@ mod tests {
     fn day_lux(set: &LightSet, accel: &Accel, cull: f32, key: u64) -> f32 {
         let mut sampler = Sampler::new(0, "lights-test", key);
         let strata = Strata::independent(&mut sampler);
-        let e = set.direct(accel, Vec3::ZERO, Vec3::Z, Vec3::Z, 1, strata, cull, &mut sampler);
+        let e = set.direct(accel, Vec3::ZERO, Vec3::Z, Vec3::Z, 1, strata, cull, &mut sampler, &Blockers::default());
         luminance(e[0])
     }
 

@@ -46,7 +46,7 @@ use rayon::prelude::*;
 
 pub use accel::Accel;
 pub use camera::{Camera, DEFAULT_LENS_TRANSMITTANCE, sensor_illuminance_lux};
-pub use lights::{LightSet, luminance};
+pub use lights::{Blockers, LightSet, luminance};
 
 use crate::scene::{LightGroup, Scene};
 use accel::SurfacePoint;
@@ -196,20 +196,38 @@ impl Default for RenderSettings {
 }
 
 /// Uniform numbers in [0, 1) from a ChaCha8 stream owned by one pixel or probe.
+///
+/// The stream is seeded on the first draw, not at construction: most pixels of a decoupled
+/// frame take their irradiance from anchors and draw nothing, and seeding a ChaCha stream
+/// (and filling its first block) for each of them was about 5 % of such a frame (perf). The
+/// numbers drawn are the same either way.
 pub struct Sampler {
-    rng: ChaCha8Rng,
+    seed: u64,
+    label_hash: u64,
+    key: u64,
+    rng: Option<ChaCha8Rng>,
 }
+
+/// [`crate::rng::fnv1a64`] of the label of the per-pixel streams, `"render/pixel"`.
+pub(crate) const PIXEL_STREAM: u64 = crate::rng::fnv1a64(b"render/pixel");
 
 impl Sampler {
     /// The stream of `key` (a pixel index, a probe hash) under `seed` and `label`.
     #[must_use]
     pub fn new(seed: u64, label: &str, key: u64) -> Sampler {
-        Sampler { rng: crate::rng::substream(seed, label, key) }
+        Sampler::of_hashed(seed, crate::rng::fnv1a64(label.as_bytes()), key)
+    }
+
+    /// [`Sampler::new`] for a label hashed once with [`crate::rng::fnv1a64`].
+    #[must_use]
+    pub(crate) const fn of_hashed(seed: u64, label_hash: u64, key: u64) -> Sampler {
+        Sampler { seed, label_hash, key, rng: None }
     }
 
     /// The next number in [0, 1).
     pub fn uniform(&mut self) -> f32 {
-        self.rng.random::<f32>()
+        let (seed, label_hash, key) = (self.seed, self.label_hash, self.key);
+        self.rng.get_or_insert_with(|| crate::rng::substream_of(seed, label_hash, key)).random::<f32>()
     }
 }
 
@@ -472,8 +490,9 @@ impl<'a> Renderer<'a> {
         &self.settings
     }
 
-    fn tracer(&self) -> Tracer<'_> {
-        Tracer { scene: self.scene, accel: &self.accel, lights: &self.lights, settings: &self.settings }
+    /// A tracer over this scene whose shadow rays keep their hints in `blockers`.
+    fn tracer<'t>(&'t self, blockers: &'t Blockers) -> Tracer<'t> {
+        Tracer { scene: self.scene, accel: &self.accel, lights: &self.lights, settings: &self.settings, blockers }
     }
 
     /// Renders `camera`'s view; rows run in parallel on the current rayon pool, and the result
@@ -561,7 +580,8 @@ impl<'a> Renderer<'a> {
             .iter()
             .fold(0u64, |h, v| h.rotate_left(13) ^ crate::rng::fnv1a64(&v.to_bits().to_le_bytes()));
         let mut sampler = Sampler::new(self.settings.seed, "render/probe", key);
-        let tracer = self.tracer();
+        let blockers = Blockers::default();
+        let tracer = self.tracer(&blockers);
         let rect_samples = self.settings.probe_rect_samples_per_axis.pow(2);
         let direct = self.lights.direct(
             &self.accel,
@@ -572,6 +592,7 @@ impl<'a> Renderer<'a> {
             Strata { first: 0, stride: 1, total: rect_samples, rotation: sampler.uniform() },
             self.settings.light_cull,
             &mut sampler,
+            &blockers,
         );
         let rays = self.settings.probe_indirect_rays;
         let strata = Strata { first: 0, stride: 1, total: rays, rotation: sampler.uniform() };

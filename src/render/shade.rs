@@ -28,7 +28,7 @@ use std::sync::OnceLock;
 use glam::{Vec2, Vec3};
 
 use super::accel::{Accel, Hit, SurfacePoint};
-use super::lights::{LightSet, luminance, ray_epsilon};
+use super::lights::{Blockers, LightSet, luminance, ray_epsilon};
 use super::{GroupRgb, RenderSettings, Sampler, Strata};
 use crate::scene::{Material, Scene, Texture};
 
@@ -136,6 +136,8 @@ pub(crate) struct Tracer<'a> {
     pub accel: &'a Accel,
     pub lights: &'a LightSet,
     pub settings: &'a RenderSettings,
+    /// Shadow-ray hints of the tile (or probe) being traced.
+    pub blockers: &'a Blockers,
 }
 
 /// A unit vector in the hemisphere about `n`, cosine-distributed, from `(u1, u2)` in [0, 1)^2.
@@ -168,6 +170,7 @@ impl Tracer<'_> {
             Strata::independent(sampler),
             self.settings.light_cull,
             sampler,
+            self.blockers,
         );
         scale(e, response.diffuse * std::f32::consts::FRAC_1_PI)
     }
@@ -273,6 +276,7 @@ impl Tracer<'_> {
             rect_strata,
             self.settings.light_cull,
             sampler,
+            self.blockers,
         );
         let indirect = self.indirect_irradiance(p, ng, ns, self.settings.indirect_rays, strata, sampler);
         add(direct, indirect)

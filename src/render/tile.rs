@@ -11,9 +11,12 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
+use super::lights::Blockers;
 use super::packet::{PACKET_RAYS, RayPacket};
-use super::shade::{Primary, SurfaceHit};
-use super::{AnchorGrid, Camera, Frame, GroupRgb, Guide, PixelOut, Renderer, Sampler, Strata, finite_radiance};
+use super::shade::{Primary, SurfaceHit, Tracer};
+use super::{
+    AnchorGrid, Camera, Frame, GroupRgb, Guide, PIXEL_STREAM, PixelOut, Renderer, Sampler, Strata, finite_radiance,
+};
 use crate::render::accel::Hit;
 
 /// Side of a tile, pixels: one tile's rays fill one packet.
@@ -167,6 +170,8 @@ impl Renderer<'_> {
         }
         let mut hits: [Option<Hit>; PACKET_RAYS] = [None; PACKET_RAYS];
         self.accel.closest_hits(packet, &mut hits);
+        let blockers = Blockers::new();
+        let tracer = self.tracer(&blockers);
         let mut labels = Vec::with_capacity(cells.len());
         for (k, (&(slot, (x, y)), &dir)) in cells.iter().zip(&dirs).enumerate() {
             let hit = hits[k].map(|h| (h.t, self.accel.surface(&h, origin, dir)));
@@ -174,14 +179,14 @@ impl Renderer<'_> {
             match job {
                 Job::Labels => store(slot, pixel_labels, None),
                 Job::Shade(grid) => {
-                    let (pixel, guide) = self.shade_centre(camera, (x, y), dir, hit, pixel_labels, grid);
+                    let (pixel, guide) = self.shade_centre(&tracer, camera, (x, y), dir, hit, pixel_labels, grid);
                     store(slot, pixel, guide);
                 }
                 Job::Samples => labels.push(pixel_labels),
             }
         }
         if let Job::Samples = job {
-            for (&(slot, _), pixel) in cells.iter().zip(self.sample_tile(camera, cells, labels, packet)) {
+            for (&(slot, _), pixel) in cells.iter().zip(self.sample_tile(&tracer, camera, cells, labels, packet)) {
                 store(slot, pixel, None);
             }
         }
@@ -193,13 +198,13 @@ impl Renderer<'_> {
     /// interleaving the pixels changes nothing.
     fn sample_tile(
         &self,
+        tracer: &Tracer<'_>,
         camera: &Camera,
         cells: &[(usize, (u32, u32))],
         mut labels: Vec<PixelOut>,
         packet: &mut RayPacket,
     ) -> Vec<PixelOut> {
         let (basis, origin) = (camera.basis(), camera.position);
-        let tracer = self.tracer();
         let n = self.settings.samples_per_axis.max(1);
         let bounce_total = n * n * self.settings.indirect_rays;
         let rect_total = n * n * self.settings.rect_samples_per_axis.pow(2);
@@ -207,7 +212,7 @@ impl Renderer<'_> {
             .iter()
             .map(|&(_, (x, y))| {
                 let key = u64::from(y) * u64::from(camera.width_px) + u64::from(x);
-                let mut sampler = Sampler::new(self.settings.seed, "render/pixel", key);
+                let mut sampler = Sampler::of_hashed(self.settings.seed, PIXEL_STREAM, key);
                 let rotation = sampler.uniform();
                 let rect_rotation = sampler.uniform();
                 (sampler, rotation, rect_rotation)
@@ -255,8 +260,10 @@ impl Renderer<'_> {
     /// the specular ones; the rotations are drawn only when a later draw needs them (an
     /// interpolated pixel without a mirror draws nothing), which leaves every used number
     /// where it was.
+    #[allow(clippy::too_many_arguments)]
     fn shade_centre(
         &self,
+        tracer: &Tracer<'_>,
         camera: &Camera,
         (x, y): (u32, u32),
         dir: Vec3,
@@ -264,7 +271,6 @@ impl Renderer<'_> {
         labels: PixelOut,
         grid: Option<&AnchorGrid>,
     ) -> (PixelOut, Option<Guide>) {
-        let tracer = self.tracer();
         let t = hit.map_or(f32::INFINITY, |h| h.0);
         let s = match tracer.primary(camera.position, dir, hit) {
             Primary::Miss => return (labels, None),
@@ -272,7 +278,7 @@ impl Renderer<'_> {
             Primary::Surface(s) => s,
         };
         let key = u64::from(y) * u64::from(camera.width_px) + u64::from(x);
-        let mut sampler = Sampler::new(self.settings.seed, "render/pixel", key);
+        let mut sampler = Sampler::of_hashed(self.settings.seed, PIXEL_STREAM, key);
         let mut strata = None;
         let e = (s.response.diffuse != Vec3::ZERO).then(|| {
             grid.and_then(|g| g.irradiance(x, y, &s.surface, labels.instance_id, t)).unwrap_or_else(|| {
@@ -283,7 +289,7 @@ impl Renderer<'_> {
         if strata.is_none() && self.settings.specular && s.response.specular != Vec3::ZERO {
             self.pixel_strata(&mut sampler);
         }
-        self.finish(labels, dir, &s, e, &mut sampler)
+        self.finish(tracer, labels, dir, &s, e, &mut sampler)
     }
 
     /// The pixel's bounce and rect-light strata, drawn first from its stream.
@@ -299,6 +305,7 @@ impl Renderer<'_> {
     /// [`Guide`] where it has one.
     pub(super) fn finish(
         &self,
+        tracer: &Tracer<'_>,
         mut out: PixelOut,
         dir: Vec3,
         s: &SurfaceHit,
@@ -312,7 +319,7 @@ impl Renderer<'_> {
             instance_id: out.instance_id,
             irradiance,
         });
-        out.radiance = finite_radiance(self.tracer().surface_radiance(dir, s, e, sampler));
+        out.radiance = finite_radiance(tracer.surface_radiance(dir, s, e, sampler));
         (out, guide)
     }
 }
