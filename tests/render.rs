@@ -11,7 +11,8 @@ use scene_gen::render::test_util::{
     room_of_boxes,
 };
 use scene_gen::render::{
-    Accel, Camera, Frame, LightScale, RenderSettings, Renderer, ShadingRate, measure_mean_illuminance, probe_points,
+    Accel, Camera, Frame, LightScale, LightSet, RenderSettings, Renderer, ShadingRate, measure_mean_illuminance,
+    probe_points,
 };
 use scene_gen::scene::{LightGroup, Object, ObjectClass, Primitive, Room, Scene, Semantic, Texture};
 
@@ -577,6 +578,50 @@ mod properties {
                 expected |= u64::from(accel.occluded(p, dir, dist)) << i;
             }
             prop_assert_eq!(accel.occluded_packet(&shadow), expected);
+        }
+
+        /// Culling rect emitters per packet keeps every one a ray of the packet sees: each ray
+        /// finds the same emitter (distance, group) among the packet's candidates as among all.
+        #[test]
+        fn packet_emitter_culling_keeps_what_rays_see(
+            x in -3.0f32..3.0, y in -3.0f32..3.0, z in 0.2f32..2.5,
+            yaw in -180f32..180.0, pitch in -90f32..=90.0, spread in 0.001f32..3.0,
+            len in 1usize..=PACKET_RAYS,
+        ) {
+            let windows: Vec<_> = (0..6)
+                .map(|k| {
+                    let a = k as f32;
+                    rect_light(
+                        LightGroup::Day,
+                        Vec3::new(2.0 * (a * 1.3).cos(), 2.0 * (a * 0.7).sin(), 0.5 + 0.3 * a),
+                        Vec3::new(0.6, 0.1 * a, 0.0),
+                        Vec3::new(0.0, 0.2, 0.9),
+                        Vec3::new((a * 2.1).cos(), (a * 2.1).sin(), -0.3),
+                        100.0,
+                    )
+                })
+                .collect();
+            let lights = LightSet::new(&windows, [1.0, 1.0]);
+            let cam = camera(8, 8, Vec3::new(x, y, z), yaw, pitch);
+            let (forward, right, up) = cam.basis();
+            let mut packet = RayPacket::new();
+            let dirs: Vec<Vec3> = (0..len)
+                .map(|i| {
+                    let (u, v) = ((i % 8) as f32 / 7.0 - 0.5, (i / 8) as f32 / 7.0 - 0.5);
+                    let d = (forward + (right * u + up * v) * spread).normalize();
+                    packet.push(cam.position, d, f32::INFINITY);
+                    d
+                })
+                .collect();
+            let mut candidates = Vec::new();
+            lights.emitters_in_reach(&packet, &mut candidates);
+            for d in &dirs {
+                let all = lights.emitter_seen(cam.position, *d, f32::INFINITY).map(|e| (e.0.to_bits(), e.1));
+                let among = lights
+                    .emitter_seen_among(cam.position, *d, f32::INFINITY, candidates.iter().copied())
+                    .map(|e| (e.0.to_bits(), e.1));
+                prop_assert_eq!(all, among);
+            }
         }
 
         /// A shadow ray's answer does not depend on the triangle tried first

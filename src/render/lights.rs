@@ -17,6 +17,7 @@ use std::f32::consts::PI;
 use glam::Vec3;
 
 use super::accel::{Accel, NO_TRIANGLE};
+use super::packet::RayPacket;
 use super::{GroupRgb, Sampler, Strata, group_index};
 use crate::scene::{Light, LightKind};
 
@@ -35,6 +36,9 @@ fn unit_luminance_tint(color: [f32; 3]) -> Vec3 {
     let y = luminance(c);
     if y > 0.0 && y.is_finite() { c / y } else { Vec3::ZERO }
 }
+
+/// Margin around a rect light's box when culling camera packets against it, metres.
+const EMITTER_BOUNDS_PAD_M: f32 = 1e-3;
 
 /// Lights (points, then directionals, then rects, in [`LightSet`] order) that get a
 /// [`Blockers`] slot; a house has a few dozen, and further lights are traced without a hint.
@@ -109,9 +113,37 @@ pub(crate) struct RectLight {
     pub group: usize,
     /// The four corners `center + u * s + v * r`, `s, r` in {-0.5, 0.5}, for the importance test.
     pub corners: [Vec3; 4],
+    /// [`RectLight::seen_bounds`], computed once.
+    pub seen_bounds: (Vec3, Vec3),
 }
 
 impl RectLight {
+    /// A box holding every point [`RectLight::hit_front`] accepts, grown by
+    /// [`EMITTER_BOUNDS_PAD_M`] plus a relative `1e-4` (far wider than the rounding of its
+    /// `|s|, |r| <= 0.5`), so a ray that sees the emitter never misses the box.
+    ///
+    /// The accepted points lie on the plane through `center` normal to `normal`, where
+    /// `w = p - center` has `w . u = s |u|^2`, `w . v = r |v|^2`: when `u`, `v` and `normal` are
+    /// not orthogonal (a light's direction is its own field) that parallelogram is not the one
+    /// spanned by `u` and `v`, so its corners are solved for. Where the three are dependent the
+    /// region is unbounded and so is the box.
+    fn seen_bounds(&self) -> (Vec3, Vec3) {
+        let rows = glam::Mat3::from_cols(self.u, self.v, self.normal).transpose();
+        let det = rows.determinant();
+        let scale = self.u.length() * self.v.length() * self.normal.length();
+        let independent = det.is_finite() && det.abs() > 1e-6 * scale;
+        if !independent {
+            return (Vec3::NEG_INFINITY, Vec3::INFINITY);
+        }
+        let inverse = rows.inverse();
+        let (uu, vv) = (self.u.length_squared(), self.v.length_squared());
+        let corners = RECT_CORNERS.map(|(s, r)| self.center + inverse * Vec3::new(s * uu, r * vv, 0.0));
+        let lo = corners.iter().fold(Vec3::INFINITY, |a, &c| a.min(c));
+        let hi = corners.iter().fold(Vec3::NEG_INFINITY, |a, &c| a.max(c));
+        let pad = Vec3::splat(EMITTER_BOUNDS_PAD_M) + lo.abs().max(hi.abs()) * 1e-4;
+        (lo - pad, hi + pad)
+    }
+
     /// Distance to the emitting face along a unit ray that meets it from the front, if it does.
     pub fn hit_front(&self, origin: Vec3, direction: Vec3, tmax: f32) -> Option<f32> {
         let denom = direction.dot(self.normal);
@@ -180,7 +212,7 @@ impl LightSet {
                     let normal = light.direction.unwrap_or(cross).normalize_or_zero();
                     if area_m2 > 0.0 && normal != Vec3::ZERO && center.is_finite() {
                         let corners = RECT_CORNERS.map(|(s, r)| center + u * s + v * r);
-                        set.rects.push(RectLight {
+                        let mut rect = RectLight {
                             center,
                             u,
                             v,
@@ -190,7 +222,10 @@ impl LightSet {
                             luminous: intensity,
                             group,
                             corners,
-                        });
+                            seen_bounds: (Vec3::NEG_INFINITY, Vec3::INFINITY),
+                        };
+                        rect.seen_bounds = rect.seen_bounds();
+                        set.rects.push(rect);
                         set.reference_nit[group] = set.reference_nit[group].max(intensity);
                     }
                 }
@@ -307,13 +342,34 @@ impl LightSet {
     /// radiance in nit per channel).
     #[must_use]
     pub fn emitter_seen(&self, origin: Vec3, direction: Vec3, tmax: f32) -> Option<(f32, usize, Vec3)> {
+        self.emitter_seen_among(origin, direction, tmax, 0..self.rects.len() as u32)
+    }
+
+    /// [`LightSet::emitter_seen`] over the rect lights `among` (indices in ascending order, as
+    /// [`LightSet::emitters_in_reach`] leaves them).
+    #[must_use]
+    pub fn emitter_seen_among(
+        &self,
+        origin: Vec3,
+        direction: Vec3,
+        tmax: f32,
+        among: impl IntoIterator<Item = u32>,
+    ) -> Option<(f32, usize, Vec3)> {
         let mut best: Option<(f32, usize, Vec3)> = None;
-        for light in &self.rects {
+        for light in among.into_iter().filter_map(|i| self.rects.get(i as usize)) {
             if let Some(t) = light.hit_front(origin, direction, best.map_or(tmax, |b| b.0)) {
                 best = Some((t, light.group, light.rgb_nit));
             }
         }
         best
+    }
+
+    /// The rect lights some ray of `packet` may see, into `out` (ascending): every camera ray
+    /// tested every window, about 4 % of an evaluator frame, where a tile sees one at most.
+    pub fn emitters_in_reach(&self, packet: &RayPacket, out: &mut Vec<u32>) {
+        out.clear();
+        out.extend(0..self.rects.len() as u32);
+        packet.keep_reachable(out, |i| self.rects[i as usize].seen_bounds);
     }
 }
 

@@ -102,6 +102,22 @@ impl RayPacket {
     fn all(&self) -> u64 {
         if self.len == PACKET_RAYS { u64::MAX } else { (1u64 << self.len) - 1 }
     }
+
+    /// Keeps in `candidates` only the boxes (`bounds(i)` = `[lo, hi]`) that some ray of the
+    /// packet may enter before its `tmax`: a box is dropped only when the packet's interval
+    /// bounds prove that no ray reaches it. For culling per-ray tests that are not in the BVH
+    /// (the rect emitters a camera ray may see) once per packet.
+    pub fn keep_reachable(&self, candidates: &mut Vec<u32>, bounds: impl Fn(u32) -> (Vec3, Vec3)) {
+        if self.len == 0 {
+            candidates.clear();
+            return;
+        }
+        let packet = PacketBounds::new(self, self.all(), &self.tmax);
+        candidates.retain(|&i| {
+            let (lo, hi) = bounds(i);
+            !packet.rejects(lo, hi)
+        });
+    }
 }
 
 /// Interval bounds of a packet for the box rejection test: per axis the range of origins and,

@@ -217,19 +217,21 @@ impl Tracer<'_> {
     }
 
     /// Radiance per group arriving along a camera ray whose closest hit is `hit` (traced with
-    /// others in a packet); its bounce rays use `strata` and its rect light samples
-    /// `rect_strata`.
+    /// others in a packet, which may reach the rect lights `emitters`); its bounce rays use
+    /// `strata` and its rect light samples `rect_strata`.
+    #[allow(clippy::too_many_arguments)]
     pub fn camera_ray(
         &self,
         origin: Vec3,
         dir: Vec3,
         hit: Option<Hit>,
+        emitters: &[u32],
         strata: Strata,
         rect_strata: Strata,
         sampler: &mut Sampler,
     ) -> GroupRgb {
         let hit = hit.map(|h| (h.t, self.accel.surface(&h, origin, dir)));
-        match self.primary(origin, dir, hit) {
+        match self.primary(origin, dir, hit, emitters) {
             Primary::Miss => [Vec3::ZERO; 2],
             Primary::Emitter(l) => l,
             Primary::Surface(s) => {
@@ -245,9 +247,11 @@ impl Tracer<'_> {
 
     /// What a camera ray along `dir` sees, given its closest hit (distance and surface): an
     /// emitter in front of the hit, nothing, or a surface with its material evaluated.
-    pub fn primary(&self, origin: Vec3, dir: Vec3, hit: Option<(f32, SurfacePoint)>) -> Primary {
+    /// Only the rect lights `emitters` are looked for (those the ray's packet may reach,
+    /// [`LightSet::emitters_in_reach`]).
+    pub fn primary(&self, origin: Vec3, dir: Vec3, hit: Option<(f32, SurfacePoint)>, emitters: &[u32]) -> Primary {
         let tmax = hit.map_or(f32::INFINITY, |h| h.0);
-        if let Some((_, group, rgb)) = self.lights.emitter_seen(origin, dir, tmax) {
+        if let Some((_, group, rgb)) = self.lights.emitter_seen_among(origin, dir, tmax, emitters.iter().copied()) {
             let mut l = [Vec3::ZERO; 2];
             l[group] = rgb;
             return Primary::Emitter(l);

@@ -172,6 +172,10 @@ impl Renderer<'_> {
         self.accel.closest_hits(packet, &mut hits);
         let blockers = Blockers::new();
         let tracer = self.tracer(&blockers);
+        let mut emitters = Vec::new();
+        if !matches!(job, Job::Labels) {
+            self.lights.emitters_in_reach(packet, &mut emitters);
+        }
         let mut labels = Vec::with_capacity(cells.len());
         for (k, (&(slot, (x, y)), &dir)) in cells.iter().zip(&dirs).enumerate() {
             let hit = hits[k].map(|h| (h.t, self.accel.surface(&h, origin, dir)));
@@ -179,7 +183,8 @@ impl Renderer<'_> {
             match job {
                 Job::Labels => store(slot, pixel_labels, None),
                 Job::Shade(grid) => {
-                    let (pixel, guide) = self.shade_centre(&tracer, camera, (x, y), dir, hit, pixel_labels, grid);
+                    let (pixel, guide) =
+                        self.shade_centre(&tracer, camera, (x, y), dir, (hit, &emitters), pixel_labels, grid);
                     store(slot, pixel, guide);
                 }
                 Job::Samples => labels.push(pixel_labels),
@@ -220,6 +225,7 @@ impl Renderer<'_> {
             .collect();
         let mut sums = vec![[Vec3::ZERO; 2]; cells.len()];
         let mut hits: [Option<Hit>; PACKET_RAYS] = [None; PACKET_RAYS];
+        let mut emitters = Vec::new();
         for j in 0..n {
             for i in 0..n {
                 packet.clear();
@@ -235,11 +241,12 @@ impl Renderer<'_> {
                     })
                     .collect();
                 self.accel.closest_hits(packet, &mut hits);
+                self.lights.emitters_in_reach(packet, &mut emitters);
                 for (k, (sampler, rotation, rect_rotation)) in samplers.iter_mut().enumerate() {
                     let first = j * n + i;
                     let strata = Strata { first, stride: n * n, total: bounce_total, rotation: *rotation };
                     let rect = Strata { first, stride: n * n, total: rect_total, rotation: *rect_rotation };
-                    let l = tracer.camera_ray(origin, dirs[k], hits[k], strata, rect, sampler);
+                    let l = tracer.camera_ray(origin, dirs[k], hits[k], &emitters, strata, rect, sampler);
                     sums[k][0] += l[0];
                     sums[k][1] += l[1];
                 }
@@ -267,12 +274,12 @@ impl Renderer<'_> {
         camera: &Camera,
         (x, y): (u32, u32),
         dir: Vec3,
-        hit: Option<(f32, super::accel::SurfacePoint)>,
+        (hit, emitters): (Option<(f32, super::accel::SurfacePoint)>, &[u32]),
         labels: PixelOut,
         grid: Option<&AnchorGrid>,
     ) -> (PixelOut, Option<Guide>) {
         let t = hit.map_or(f32::INFINITY, |h| h.0);
-        let s = match tracer.primary(camera.position, dir, hit) {
+        let s = match tracer.primary(camera.position, dir, hit, emitters) {
             Primary::Miss => return (labels, None),
             Primary::Emitter(l) => return (PixelOut { radiance: finite_radiance(l), ..labels }, None),
             Primary::Surface(s) => s,
