@@ -17,6 +17,7 @@ pub fn stream(seed: u64, label: &str) -> ChaCha8Rng {
 
 /// The stream for `label` and a sub-index (a room, an object) under `seed`.
 #[must_use]
+#[inline]
 pub fn substream(seed: u64, label: &str, index: u64) -> ChaCha8Rng {
     let mut rng = ChaCha8Rng::seed_from_u64(seed ^ index.wrapping_mul(0x9E37_79B9_7F4A_7C15));
     rng.set_stream(fnv1a64(label.as_bytes()));
@@ -25,6 +26,7 @@ pub fn substream(seed: u64, label: &str, index: u64) -> ChaCha8Rng {
 
 /// FNV-1a, 64 bit: a fixed, platform-independent hash for stream labels.
 #[must_use]
+#[inline]
 pub fn fnv1a64(bytes: &[u8]) -> u64 {
     bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3))
 }

@@ -86,6 +86,7 @@ impl RayPacket {
     ///
     /// # Panics
     /// When the packet is full.
+    #[inline(always)]
     pub fn push(&mut self, origin: Vec3, direction: Vec3, tmax: f32) -> usize {
         assert!(self.len < PACKET_RAYS, "a ray packet holds at most {PACKET_RAYS} rays");
         let i = self.len;
@@ -99,6 +100,7 @@ impl RayPacket {
     }
 
     /// Bit mask of every ray in the packet.
+    #[inline(always)]
     fn all(&self) -> u64 {
         if self.len == PACKET_RAYS { u64::MAX } else { (1u64 << self.len) - 1 }
     }
@@ -117,6 +119,7 @@ struct PacketBounds {
 }
 
 impl PacketBounds {
+    #[inline(always)]
     fn new(packet: &RayPacket, rays: u64, tmax: &[f32; PACKET_RAYS]) -> PacketBounds {
         let mut b = PacketBounds {
             origin_min: Vec3::INFINITY,
@@ -141,6 +144,7 @@ impl PacketBounds {
     }
 
     /// Whether no ray of the packet can enter the box `[lo, hi]` within its `tmax`.
+    #[inline(always)]
     fn rejects(&self, lo: Vec3, hi: Vec3) -> bool {
         let mut enter = NODE_TMIN;
         let mut exit = self.tmax;
@@ -168,6 +172,7 @@ impl PacketBounds {
 }
 
 /// Indices of the set bits of `mask`, lowest first.
+#[inline(always)]
 fn bits(mut mask: u64) -> impl Iterator<Item = usize> {
     std::iter::from_fn(move || {
         (mask != 0).then(|| {
@@ -206,6 +211,7 @@ fn ray_enters(node: &CwBvhNode, child: usize, packet: &RayPacket, r: usize, tmax
 }
 
 /// A child's world box.
+#[inline(always)]
 fn child_box(node: &CwBvhNode, child: usize) -> (Vec3, Vec3) {
     let b = node.child_aabb(child);
     (b.min.into(), b.max.into())
@@ -258,6 +264,7 @@ impl Accel {
     ///
     /// # Panics
     /// When `hits` is shorter than the packet.
+    #[inline(always)]
     pub fn closest_hits(&self, packet: &RayPacket, hits: &mut [Option<Hit>]) {
         let hits = &mut hits[..packet.len()];
         hits.fill(None);
@@ -278,6 +285,7 @@ impl Accel {
     }
 
     /// Walks the BVH with every ray of `active`, depth first, nearer children first.
+    #[inline(always)]
     fn traverse_packet(
         &self,
         packet: &RayPacket,
