@@ -7,6 +7,12 @@
 //! pixel-by-pixel trace gives, at any thread count. Shadow rays stay one at a time: traced as
 //! packets per light and tile they were slower on real frames (rect-light samples and culled
 //! lights give small, spread packets; measured in docs/BENCHMARKS.md).
+//!
+//! Each band of tiles runs in one of two builds of the same source ([`crate::simd`]): an AVX2 +
+//! FMA clone where the CPU has both, else the baseline; the frame is the same bit for bit
+//! (`SCENE_GEN_NO_SIMD=1` forces the baseline). The call tree under [`Renderer::trace_band`] is
+//! `#[inline(always)]` down to the triangle test, since a function left out of line is compiled
+//! once, for the baseline, and closures called from both builds are avoided for the same reason.
 
 use glam::Vec3;
 use rayon::prelude::*;
