@@ -47,6 +47,8 @@ use crate::camera_spec::{NoiseKind, ResolvedCamera};
 use crate::optics::{OpticsInput, OpticsPlan};
 use crate::radiometry::{Capture, capture_frame, photons_per_pixel};
 use crate::render::{Camera, luminance};
+use crate::sensor::noise::FrameSimulator;
+use crate::simd::Dispatch;
 
 /// Reflectance of the reference grey the digital gain is set on (18 %, the photographic
 /// mid-grey that ISO 2720 reflected-light meters are calibrated to).
@@ -186,6 +188,7 @@ pub struct Scenario<'a> {
 impl Scenario<'_> {
     /// The scenario's radiance of one pixel from its day and night radiance.
     #[must_use]
+    #[inline]
     pub fn mix(&self, day: &[f32; 3], night: &[f32; 3]) -> [f32; 3] {
         std::array::from_fn(|c| day[c] * self.day_weight + night[c] * self.night_weight)
     }
@@ -204,11 +207,32 @@ impl Scenario<'_> {
 /// per pixel for all scenarios; only the bytes are written. Other captures take the chain
 /// above.
 ///
+/// The rows run in the AVX2 + FMA build where the CPU has it ([`crate::simd`]; the same bytes
+/// either way, `SCENE_GEN_NO_SIMD=1` forces the baseline build).
+///
 /// # Panics
 /// If `day_nit` or `night_nit` is not the camera's pixel count.
 #[must_use]
 #[allow(clippy::too_many_arguments)]
 pub fn capture_8bit(
+    resolved: &ResolvedCamera,
+    camera: &Camera,
+    day_nit: &[[f32; 3]],
+    night_nit: &[[f32; 3]],
+    optics: Option<OpticsInput<'_>>,
+    pattern_seed: u64,
+    rule: OutputRule,
+    scenarios: &[Scenario<'_>],
+) -> Vec<Vec<u8>> {
+    capture_8bit_with(Dispatch::current(), resolved, camera, day_nit, night_nit, optics, pattern_seed, rule, scenarios)
+}
+
+/// [`capture_8bit`] with the fused rows in the build `dispatch` (downgraded to
+/// [`Dispatch::Generic`] where the CPU lacks it): tests compare the two builds with it.
+#[must_use]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn capture_8bit_with(
+    dispatch: Dispatch,
     resolved: &ResolvedCamera,
     camera: &Camera,
     day_nit: &[[f32; 3]],
@@ -238,37 +262,30 @@ pub fn capture_8bit(
     let sims: Vec<_> =
         scenarios.iter().map(|s| model.frame_simulator(&pattern, spec.exposure_s, s.gain_db, s.frame_seed)).collect();
     let luts: Vec<Vec<u8>> = scenarios.iter().map(|s| grey_lut(rule, model.adc_bits, s.isp)).collect();
-    let basis = camera.basis();
-    let (f_number, transmittance, pitch_um) =
-        (f64::from(camera.f_number), f64::from(spec.lens_transmittance), f64::from(camera.pixel_pitch_um));
+    let fused = FusedRows {
+        camera,
+        basis: camera.basis(),
+        day_nit,
+        night_nit,
+        scenarios,
+        sims: &sims,
+        luts: &luts,
+        f_number: f64::from(camera.f_number),
+        transmittance: f64::from(spec.lens_transmittance),
+        pitch_um: f64::from(camera.pixel_pitch_um),
+        exposure_s: spec.exposure_s,
+    };
     let n = scenarios.len();
+    let dispatch = dispatch.supported();
     // Row r of scenario s at [(r n + s) w, (r n + s + 1) w): one chunk per row for all scenarios.
     let mut rows = vec![0u8; n * w * h];
     rows.par_chunks_mut(n * w).enumerate().for_each_init(
         || (vec![0f32; w], vec![0f32; w]),
-        |(falloff, photons), (r, out)| {
-            let y = r as f32 + 0.5;
-            for (c, v) in falloff.iter_mut().enumerate() {
-                *v = camera.relative_illumination_in(basis, c as f32 + 0.5, y);
-            }
-            let (day, night) = (&day_nit[r * w..(r + 1) * w], &night_nit[r * w..(r + 1) * w]);
-            for (s, scenario) in scenarios.iter().enumerate() {
-                // radiometry::photon_image of the scenario's luminance.
-                for (((p, d), nt), &fall) in photons.iter_mut().zip(day).zip(night).zip(falloff.iter()) {
-                    let l = luminance(glam::Vec3::from(scenario.mix(d, nt)));
-                    *p = photons_per_pixel(
-                        f64::from(l.max(0.0)),
-                        f_number,
-                        transmittance,
-                        f64::from(fall),
-                        spec.exposure_s,
-                        pitch_um,
-                    ) as f32;
-                }
-                let (sim, lut) = (&sims[s], &luts[s]);
-                let out = &mut out[s * w..(s + 1) * w];
-                sim.row(r, photons, |c, v| out[c] = lut[usize::from(sim.to_u16(v)).min(lut.len() - 1)]);
-            }
+        |(falloff, photons), (r, out)| match dispatch {
+            // SAFETY: `supported()` gives `Avx2Fma` only when this CPU has AVX2 and FMA.
+            #[cfg(target_arch = "x86_64")]
+            Dispatch::Avx2Fma => unsafe { fused.row_avx2(r, out, falloff, photons) },
+            _ => fused.row(r, out, falloff, photons),
         },
     );
     (0..n)
@@ -278,6 +295,65 @@ pub fn capture_8bit(
             grey
         })
         .collect()
+}
+
+/// The per-frame inputs of [`capture_8bit`]'s fused rows.
+struct FusedRows<'a> {
+    camera: &'a Camera,
+    basis: (glam::Vec3, glam::Vec3, glam::Vec3),
+    day_nit: &'a [[f32; 3]],
+    night_nit: &'a [[f32; 3]],
+    scenarios: &'a [Scenario<'a>],
+    sims: &'a [FrameSimulator<'a>],
+    luts: &'a [Vec<u8>],
+    f_number: f64,
+    transmittance: f64,
+    pitch_um: f64,
+    exposure_s: f64,
+}
+
+impl FusedRows<'_> {
+    /// [`FusedRows::row`] compiled with AVX2 and FMA enabled: the photon conversion, the noise
+    /// draws of [`FrameSimulator::row`] and the look-up get AVX2 code.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2 and FMA: call it only when [`Dispatch::supported`] returned
+    /// [`Dispatch::Avx2Fma`].
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn row_avx2(&self, r: usize, out: &mut [u8], falloff: &mut [f32], photons: &mut [f32]) {
+        self.row(r, out, falloff, photons);
+    }
+
+    /// Row `r` of every scenario into `out` (scenario `s` at `[s w, (s + 1) w)`), with
+    /// `falloff` and `photons` one row of scratch each. Always inlined, so that each caller
+    /// (the baseline loop and [`FusedRows::row_avx2`]) compiles its own copy.
+    #[inline(always)]
+    fn row(&self, r: usize, out: &mut [u8], falloff: &mut [f32], photons: &mut [f32]) {
+        let w = falloff.len();
+        let y = r as f32 + 0.5;
+        for (c, v) in falloff.iter_mut().enumerate() {
+            *v = self.camera.relative_illumination_in(self.basis, c as f32 + 0.5, y);
+        }
+        let (day, night) = (&self.day_nit[r * w..(r + 1) * w], &self.night_nit[r * w..(r + 1) * w]);
+        for (s, scenario) in self.scenarios.iter().enumerate() {
+            // radiometry::photon_image of the scenario's luminance.
+            for (((p, d), nt), &fall) in photons.iter_mut().zip(day).zip(night).zip(falloff.iter()) {
+                let l = luminance(glam::Vec3::from(scenario.mix(d, nt)));
+                *p = photons_per_pixel(
+                    f64::from(l.max(0.0)),
+                    self.f_number,
+                    self.transmittance,
+                    f64::from(fall),
+                    self.exposure_s,
+                    self.pitch_um,
+                ) as f32;
+            }
+            let (sim, lut) = (&self.sims[s], &self.luts[s]);
+            let out = &mut out[s * w..(s + 1) * w];
+            sim.row(r, photons, |c, v| out[c] = lut[usize::from(sim.to_u16(v)).min(lut.len() - 1)]);
+        }
+    }
 }
 
 #[cfg(test)]
@@ -416,5 +492,29 @@ mod tests {
         // A different frame seed gives different noise.
         let other = [Scenario { frame_seed: 6, ..scenarios[0] }];
         assert_ne!(one, capture_8bit(&r, &camera, &day, &night, None, 1, OutputRule::Isp, &other));
+    }
+
+    /// The fused rows in the AVX2 clone give the baseline's bytes: day, night and a mix, with
+    /// and without the cos^4 fall-off, both output rules.
+    #[test]
+    fn the_avx2_clone_captures_the_bytes_of_the_baseline() {
+        use crate::simd::Dispatch;
+        for (text, rule) in [
+            ("IMX174,focal_mm=4,pitch_deg=-10", OutputRule::Isp),
+            ("IMX174,focal_mm=4,vignetting=false", OutputRule::Isp),
+            ("IMX174,focal_mm=6", OutputRule::TopBits),
+        ] {
+            let (r, camera, day, night, _) = small_frame(CameraSpec::from_inline(text).unwrap());
+            let isps = [Isp::for_scenario(&r, 5.0, 20.0, 1), Isp::for_scenario(&r, 15.0, 2.0, 1)];
+            let scenarios = [
+                Scenario { day_weight: 1.0, night_weight: 0.0, gain_db: 5.0, frame_seed: 11, isp: &isps[0] },
+                Scenario { day_weight: 0.0, night_weight: 1.3, gain_db: 15.0, frame_seed: 12, isp: &isps[1] },
+                Scenario { day_weight: 0.7, night_weight: 0.2, gain_db: 0.0, frame_seed: 13, isp: &isps[0] },
+            ];
+            let run = |d| capture_8bit_with(d, &r, &camera, &day, &night, None, 3, rule, &scenarios);
+            let generic = run(Dispatch::Generic);
+            assert!(generic.iter().all(|g| g.iter().any(|&v| v != g[0])), "{text}: a constant image");
+            assert_eq!(generic, run(Dispatch::Avx2Fma), "{text}");
+        }
     }
 }

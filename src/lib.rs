@@ -57,6 +57,10 @@
 //!   (`scene-gen optimize`), resumable; [`plot`] draws its training curve.
 //! * [`serve`]: the evaluator as a JSON-lines server any optimizer can drive (`scene-gen serve`).
 //!
+//! Speed:
+//! * [`simd`]: run-time choice of an AVX2 + FMA clone of the render and sensor hot loops
+//!   (bit-identical output; `SCENE_GEN_NO_SIMD=1` forces the baseline).
+//!
 //! ```no_run
 //! use scene_gen::{config::GeneratorConfig, generate::generate, library::Library};
 //! let library = Library::embedded()?;
@@ -95,6 +99,7 @@ pub mod scene;
 pub mod seeds;
 pub mod sensor;
 pub mod serve;
+pub mod simd;
 pub mod structure;
 pub mod target;
 pub mod textures;

@@ -35,6 +35,7 @@ pub const PHOTONS_PER_LUX_S_M2: f64 = 1.0 / 683.0 / (H_C_J_M / 555e-9);
 
 /// Mean photons reaching one pixel: `E t A K_ph` with `E` from the camera equation.
 #[must_use]
+#[inline]
 pub fn photons_per_pixel(
     luminance_nit: f64,
     f_number: f64,

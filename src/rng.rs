@@ -17,6 +17,7 @@ pub fn stream(seed: u64, label: &str) -> ChaCha8Rng {
 
 /// The stream for `label` and a sub-index (a room, an object) under `seed`.
 #[must_use]
+#[inline]
 pub fn substream(seed: u64, label: &str, index: u64) -> ChaCha8Rng {
     substream_of(seed, fnv1a64(label.as_bytes()), index)
 }
@@ -24,6 +25,7 @@ pub fn substream(seed: u64, label: &str, index: u64) -> ChaCha8Rng {
 /// [`substream`] for a label already hashed with [`fnv1a64`] (hot callers hash theirs once, at
 /// compile time).
 #[must_use]
+#[inline]
 pub fn substream_of(seed: u64, label_hash: u64, index: u64) -> ChaCha8Rng {
     let mut rng = ChaCha8Rng::seed_from_u64(seed ^ index.wrapping_mul(0x9E37_79B9_7F4A_7C15));
     rng.set_stream(label_hash);
@@ -32,6 +34,7 @@ pub fn substream_of(seed: u64, label_hash: u64, index: u64) -> ChaCha8Rng {
 
 /// FNV-1a, 64 bit: a fixed, platform-independent hash for stream labels.
 #[must_use]
+#[inline]
 pub const fn fnv1a64(bytes: &[u8]) -> u64 {
     // A `while` loop: iterators are not available in a `const fn`.
     let mut h: u64 = 0xcbf2_9ce4_8422_2325;

@@ -83,6 +83,7 @@ pub struct ShearedRay {
 impl ShearedRay {
     /// Prepares `direction` (need not be unit, must be non-zero) from `origin`.
     #[must_use]
+    #[inline(always)]
     pub fn new(origin: Vec3, direction: Vec3) -> ShearedRay {
         let a = direction.abs();
         let kz = if a.x > a.y {
@@ -278,6 +279,7 @@ impl Accel {
 
     /// The closest hit along `origin + t * direction` for `0 < t < tmax`; `direction` unit.
     #[must_use]
+    #[inline(always)]
     pub fn closest_hit(&self, origin: Vec3, direction: Vec3, tmax: f32) -> Option<Hit> {
         let bvh = self.bvh.as_ref()?;
         let direction = positive_zeros(direction);
@@ -301,6 +303,7 @@ impl Accel {
     /// Whether anything lies on `origin + t * direction` for `0 < t < tmax` (a shadow ray).
     /// Any hit ends the traversal at once.
     #[must_use]
+    #[inline(always)]
     pub fn occluded(&self, origin: Vec3, direction: Vec3, tmax: f32) -> bool {
         self.blocker(origin, direction, tmax, NO_TRIANGLE).is_some()
     }
@@ -320,6 +323,7 @@ impl Accel {
     /// every one a sun leak at a wall's top edge removed). An out-of-range hint (such as
     /// [`NO_TRIANGLE`]) is skipped.
     #[must_use]
+    #[inline(always)]
     pub fn blocker(&self, origin: Vec3, direction: Vec3, tmax: f32, hint: u32) -> Option<u32> {
         let bvh = self.bvh.as_ref()?;
         let direction = positive_zeros(direction);
@@ -345,6 +349,7 @@ impl Accel {
 
     /// Interpolated surface at `hit` of a ray travelling along `direction`.
     #[must_use]
+    #[inline(always)]
     pub fn surface(&self, hit: &Hit, origin: Vec3, direction: Vec3) -> SurfacePoint {
         let attr = self.attrs[hit.triangle as usize];
         let [p0, p1, p2] = self.tris[hit.triangle as usize].map(Vec3::from);
@@ -374,6 +379,7 @@ impl Accel {
 
     /// Instance and class id of the node a triangle belongs to.
     #[must_use]
+    #[inline(always)]
     pub fn label(&self, node: usize) -> NodeLabel {
         self.labels.get(node).copied().unwrap_or_default()
     }

@@ -109,6 +109,7 @@ impl Camera {
 
     /// [`Camera::ray_direction`] with the [`Camera::basis`] computed once by the caller.
     #[must_use]
+    #[inline]
     pub fn ray_direction_in(&self, (forward, right, up): (Vec3, Vec3, Vec3), px: f32, py: f32) -> Vec3 {
         let pitch_mm = self.pixel_pitch_um * 1e-3;
         let x_mm = (px - self.width_px as f32 * 0.5) * pitch_mm;
@@ -126,6 +127,7 @@ impl Camera {
     /// [`Camera::relative_illumination`] with the [`Camera::basis`] computed once by the caller
     /// (a whole image: the basis costs two sines and cosines per call).
     #[must_use]
+    #[inline]
     pub fn relative_illumination_in(&self, basis: (Vec3, Vec3, Vec3), px: f32, py: f32) -> f32 {
         if !self.vignetting {
             return 1.0;
@@ -142,6 +144,7 @@ impl Camera {
 /// S. F. Ray, *Applied Photographic Optics*, 3rd ed., Focal Press 2002, on image illuminance.
 /// The sensor model turns this into photons with the exposure time and pixel area.
 #[must_use]
+#[inline]
 pub fn sensor_illuminance_lux(
     luminance_nit: f32,
     f_number: f32,

@@ -26,6 +26,7 @@ pub const LUMA_BT709: Vec3 = Vec3::new(0.2126, 0.7152, 0.0722);
 
 /// Luminance of a linear-sRGB triple.
 #[must_use]
+#[inline(always)]
 pub fn luminance(rgb: Vec3) -> f32 {
     rgb.dot(LUMA_BT709)
 }
@@ -67,6 +68,7 @@ impl Blockers {
     }
 
     /// Whether the shadow ray to light `slot` is blocked, remembering what blocked it.
+    #[inline(always)]
     fn occluded(&self, accel: &Accel, slot: usize, origin: Vec3, dir: Vec3, tmax: f32) -> bool {
         let Some(last) = self.last.get(slot) else { return accel.occluded(origin, dir, tmax) };
         match accel.blocker(origin, dir, tmax, last.get()) {
@@ -145,6 +147,7 @@ impl RectLight {
     }
 
     /// Distance to the emitting face along a unit ray that meets it from the front, if it does.
+    #[inline(always)]
     pub fn hit_front(&self, origin: Vec3, direction: Vec3, tmax: f32) -> Option<f32> {
         let denom = direction.dot(self.normal);
         if denom >= 0.0 {
@@ -254,6 +257,7 @@ impl LightSet {
     /// (docs/BENCHMARKS.md, "Speckle in preview day frames").
     #[allow(clippy::too_many_arguments)]
     #[must_use]
+    #[inline(always)]
     pub fn direct(
         &self,
         accel: &Accel,
@@ -341,6 +345,7 @@ impl LightSet {
     /// The first rect light emitter seen along a unit ray before `tmax`: (distance, group,
     /// radiance in nit per channel).
     #[must_use]
+    #[inline(always)]
     pub fn emitter_seen(&self, origin: Vec3, direction: Vec3, tmax: f32) -> Option<(f32, usize, Vec3)> {
         self.emitter_seen_among(origin, direction, tmax, 0..self.rects.len() as u32)
     }
@@ -348,6 +353,7 @@ impl LightSet {
     /// [`LightSet::emitter_seen`] over the rect lights `among` (indices in ascending order, as
     /// [`LightSet::emitters_in_reach`] leaves them).
     #[must_use]
+    #[inline(always)]
     pub fn emitter_seen_among(
         &self,
         origin: Vec3,
@@ -366,6 +372,7 @@ impl LightSet {
 
     /// The rect lights some ray of `packet` may see, into `out` (ascending): every camera ray
     /// tested every window, about 4 % of an evaluator frame, where a tile sees one at most.
+    #[inline(always)]
     pub fn emitters_in_reach(&self, packet: &RayPacket, out: &mut Vec<u32>) {
         out.clear();
         out.extend(0..self.rects.len() as u32);
@@ -381,6 +388,7 @@ const RECT_CORNERS: [(f32, f32); 4] = [(-0.5, -0.5), (0.5, -0.5), (0.5, 0.5), (-
 
 /// Russian roulette for a light of importance `b` in a group of total `total`: `Some(weight)`
 /// when it is to be traced.
+#[inline(always)]
 fn roulette(b: f32, total: f32, cull: f32, sampler: &mut Sampler) -> Option<f32> {
     if b <= 0.0 {
         return None;
@@ -396,6 +404,7 @@ fn roulette(b: f32, total: f32, cull: f32, sampler: &mut Sampler) -> Option<f32>
 }
 
 /// Unshadowed illuminance (lux) of a point light; 0 when it is behind the surface.
+#[inline(always)]
 fn point_importance(light: &PointLight, point: Vec3, ng: Vec3, ns: Vec3) -> f32 {
     let d = light.position - point;
     let dist2 = d.length_squared();
@@ -406,6 +415,7 @@ fn point_importance(light: &PointLight, point: Vec3, ng: Vec3, ns: Vec3) -> f32 
 }
 
 /// Unshadowed illuminance (lux) of a directional light.
+#[inline(always)]
 fn directional_importance(light: &DirectionalLight, ng: Vec3, ns: Vec3) -> f32 {
     if ng.dot(light.to_light) <= 0.0 {
         return 0.0;
@@ -416,6 +426,7 @@ fn directional_importance(light: &DirectionalLight, ng: Vec3, ns: Vec3) -> f32 {
 /// A rough size of a rect light's illuminance: `L A / d^2` from its centre, at most `pi L`
 /// (a whole hemisphere of that luminance); 0 when the point is behind the emitter or the
 /// emitter behind the surface.
+#[inline(always)]
 fn rect_importance(light: &RectLight, point: Vec3, ns: Vec3) -> f32 {
     let to_point = point - light.center;
     if to_point.dot(light.normal) <= 0.0 {
@@ -431,6 +442,7 @@ fn rect_importance(light: &RectLight, point: Vec3, ns: Vec3) -> f32 {
 /// How far to push a ray origin off a surface at `point` so it does not re-hit that surface:
 /// relative to the coordinates' magnitude, since f32 spacing grows with them.
 #[must_use]
+#[inline(always)]
 pub fn ray_epsilon(point: Vec3) -> f32 {
     1e-4 * (1.0 + point.abs().max_element())
 }

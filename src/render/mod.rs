@@ -214,6 +214,7 @@ pub(crate) const PIXEL_STREAM: u64 = crate::rng::fnv1a64(b"render/pixel");
 impl Sampler {
     /// The stream of `key` (a pixel index, a probe hash) under `seed` and `label`.
     #[must_use]
+    #[inline(always)]
     pub fn new(seed: u64, label: &str, key: u64) -> Sampler {
         Sampler::of_hashed(seed, crate::rng::fnv1a64(label.as_bytes()), key)
     }
@@ -225,6 +226,7 @@ impl Sampler {
     }
 
     /// The next number in [0, 1).
+    #[inline(always)]
     pub fn uniform(&mut self) -> f32 {
         let (seed, label_hash, key) = (self.seed, self.label_hash, self.key);
         self.rng.get_or_insert_with(|| crate::rng::substream_of(seed, label_hash, key)).random::<f32>()
@@ -253,11 +255,13 @@ pub struct Strata {
 
 impl Strata {
     /// A set of one point: both coordinates independent uniform numbers.
+    #[inline(always)]
     pub fn independent(sampler: &mut Sampler) -> Strata {
         Strata { first: 0, stride: 1, total: 1, rotation: sampler.uniform() }
     }
 
     /// The `k`-th sample of this point, in [0, 1)^2.
+    #[inline(always)]
     pub fn point(&self, k: u32, sampler: &mut Sampler) -> (f32, f32) {
         // 1 / golden ratio: the lattice generator with the most uniform 1D projections.
         const INV_PHI: f64 = 0.618_033_988_749_894_9;
@@ -399,11 +403,13 @@ impl AnchorGrid {
     }
 
     /// Pixel coordinate of anchor column (or row) `i` on a side of `n` pixels.
+    #[inline(always)]
     fn coord(&self, i: u32, n: u32) -> u32 {
         (i * self.stride).min(n - 1)
     }
 
     /// Anchor column (or row) at pixel coordinate `v` of a side of `n` pixels, if it is one.
+    #[inline(always)]
     fn anchor_at(&self, v: u32, n: u32) -> Option<u32> {
         if v % self.stride == 0 {
             Some(v / self.stride)
@@ -415,6 +421,7 @@ impl AnchorGrid {
     }
 
     /// Index of pixel (x, y) among the anchors, if it is one.
+    #[inline(always)]
     fn index(&self, x: u32, y: u32) -> Option<usize> {
         let cx = self.anchor_at(x, self.width)?;
         let cy = self.anchor_at(y, self.height)?;
@@ -422,6 +429,7 @@ impl AnchorGrid {
     }
 
     /// The surrounding anchors of coordinate `v` and the weight of the second.
+    #[inline(always)]
     fn span(&self, v: u32, n: u32, count: u32) -> (u32, u32, f32) {
         let i0 = (v / self.stride).min(count - 1);
         let i1 = (i0 + 1).min(count - 1);
@@ -432,6 +440,7 @@ impl AnchorGrid {
 
     /// Irradiance at pixel (x, y), whose ray of length `t` hit `surface` (of `instance_id`), as
     /// the bilinear mix of the surrounding anchors on the same surface; `None` when there is none.
+    #[inline(always)]
     fn irradiance(&self, x: u32, y: u32, surface: &SurfacePoint, instance_id: u32, t: f32) -> Option<GroupRgb> {
         let (cx0, cx1, fx) = self.span(x, self.width, self.cols);
         let (cy0, cy1, fy) = self.span(y, self.height, self.rows);
@@ -469,13 +478,21 @@ pub struct Renderer<'a> {
     accel: Accel,
     lights: LightSet,
     settings: RenderSettings,
+    /// Which build of the tile loop runs ([`crate::simd`]; same frame either way).
+    dispatch: crate::simd::Dispatch,
 }
 
 impl<'a> Renderer<'a> {
     /// Builds the BVH and prepares the lights at their nominal intensities.
     #[must_use]
     pub fn new(scene: &'a Scene, settings: RenderSettings) -> Renderer<'a> {
-        Renderer { scene, accel: Accel::build(scene), lights: LightSet::new(&scene.lights, [1.0, 1.0]), settings }
+        Renderer {
+            scene,
+            accel: Accel::build(scene),
+            lights: LightSet::new(&scene.lights, [1.0, 1.0]),
+            settings,
+            dispatch: crate::simd::Dispatch::current(),
+        }
     }
 
     /// The scene's BVH (for benchmarks and custom ray queries).
@@ -491,6 +508,7 @@ impl<'a> Renderer<'a> {
     }
 
     /// A tracer over this scene whose shadow rays keep their hints in `blockers`.
+    #[inline(always)]
     fn tracer<'t>(&'t self, blockers: &'t Blockers) -> Tracer<'t> {
         Tracer { scene: self.scene, accel: &self.accel, lights: &self.lights, settings: &self.settings, blockers }
     }
@@ -558,6 +576,7 @@ impl<'a> Renderer<'a> {
 
     /// The labels (depth along the optical axis, ids, normal) of a centre ray's hit; black
     /// radiance.
+    #[inline(always)]
     fn labels(&self, dir: Vec3, basis: (Vec3, Vec3, Vec3), hit: Option<&(f32, SurfacePoint)>) -> PixelOut {
         let mut out = PixelOut { depth_m: f32::INFINITY, ..PixelOut::default() };
         if let Some((t, surface)) = hit {
@@ -604,6 +623,7 @@ impl<'a> Renderer<'a> {
 }
 
 /// Guards the contract "no NaN anywhere": a non-finite sample would poison the frame.
+#[inline(always)]
 fn finite_radiance(l: GroupRgb) -> GroupRgb {
     l.map(|c| if c.is_finite() { c.max(Vec3::ZERO) } else { Vec3::ZERO })
 }

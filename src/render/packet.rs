@@ -86,6 +86,7 @@ impl RayPacket {
     ///
     /// # Panics
     /// When the packet is full.
+    #[inline(always)]
     pub fn push(&mut self, origin: Vec3, direction: Vec3, tmax: f32) -> usize {
         assert!(self.len < PACKET_RAYS, "a ray packet holds at most {PACKET_RAYS} rays");
         let i = self.len;
@@ -99,6 +100,7 @@ impl RayPacket {
     }
 
     /// Bit mask of every ray in the packet.
+    #[inline(always)]
     fn all(&self) -> u64 {
         if self.len == PACKET_RAYS { u64::MAX } else { (1u64 << self.len) - 1 }
     }
@@ -107,6 +109,7 @@ impl RayPacket {
     /// packet may enter before its `tmax`: a box is dropped only when the packet's interval
     /// bounds prove that no ray reaches it. For culling per-ray tests that are not in the BVH
     /// (the rect emitters a camera ray may see) once per packet.
+    #[inline(always)]
     pub fn keep_reachable(&self, candidates: &mut Vec<u32>, bounds: impl Fn(u32) -> (Vec3, Vec3)) {
         if self.len == 0 {
             candidates.clear();
@@ -133,6 +136,7 @@ struct PacketBounds {
 }
 
 impl PacketBounds {
+    #[inline(always)]
     fn new(packet: &RayPacket, rays: u64, tmax: &[f32; PACKET_RAYS]) -> PacketBounds {
         let mut b = PacketBounds {
             origin_min: Vec3::INFINITY,
@@ -157,6 +161,7 @@ impl PacketBounds {
     }
 
     /// Whether no ray of the packet can enter the box `[lo, hi]` within its `tmax`.
+    #[inline(always)]
     fn rejects(&self, lo: Vec3, hi: Vec3) -> bool {
         let mut enter = NODE_TMIN;
         let mut exit = self.tmax;
@@ -184,6 +189,7 @@ impl PacketBounds {
 }
 
 /// Indices of the set bits of `mask`, lowest first.
+#[inline(always)]
 fn bits(mut mask: u64) -> impl Iterator<Item = usize> {
     std::iter::from_fn(move || {
         (mask != 0).then(|| {
@@ -222,6 +228,7 @@ fn ray_enters(node: &CwBvhNode, child: usize, packet: &RayPacket, r: usize, tmax
 }
 
 /// A child's world box.
+#[inline(always)]
 fn child_box(node: &CwBvhNode, child: usize) -> (Vec3, Vec3) {
     let b = node.child_aabb(child);
     (b.min.into(), b.max.into())
@@ -274,6 +281,7 @@ impl Accel {
     ///
     /// # Panics
     /// When `hits` is shorter than the packet.
+    #[inline(always)]
     pub fn closest_hits(&self, packet: &RayPacket, hits: &mut [Option<Hit>]) {
         let hits = &mut hits[..packet.len()];
         hits.fill(None);
@@ -294,6 +302,7 @@ impl Accel {
     }
 
     /// Walks the BVH with every ray of `active`, depth first, nearer children first.
+    #[inline(always)]
     fn traverse_packet(
         &self,
         packet: &RayPacket,

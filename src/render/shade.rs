@@ -41,12 +41,14 @@ pub fn is_transparent(material: &Material) -> bool {
 
 /// The sRGB-encoded RGBA8 bytes of a texture. The one place that knows the buffer's type.
 #[must_use]
+#[inline(always)]
 pub fn texels(texture: &Texture) -> &[u8] {
     &texture.rgba8
 }
 
 /// sRGB transfer function decoded to linear (IEC 61966-2-1), as a 256-entry table.
 #[must_use]
+#[inline(always)]
 pub fn srgb_to_linear(byte: u8) -> f32 {
     static LUT: OnceLock<[f32; 256]> = OnceLock::new();
     LUT.get_or_init(|| {
@@ -60,6 +62,7 @@ pub fn srgb_to_linear(byte: u8) -> f32 {
 /// Bilinear sample of a texture's linear RGB at `uv` ((0, 0) = top-left, repeating every 1.0).
 /// A texture whose buffer is shorter than its size says returns white.
 #[must_use]
+#[inline(always)]
 pub fn sample_texture(texture: &Texture, uv: Vec2) -> Vec3 {
     let (w, h) = (texture.width as usize, texture.height as usize);
     let bytes = texels(texture);
@@ -76,12 +79,15 @@ pub fn sample_texture(texture: &Texture, uv: Vec2) -> Vec3 {
     let wrap = |v: f32, n: usize| (v as i64).rem_euclid(n as i64) as usize;
     let (xa, xb) = (wrap(x0, w), wrap(x0 + 1.0, w));
     let (ya, yb) = (wrap(y0, h), wrap(y0 + 1.0, h));
-    let texel = |x: usize, y: usize| {
+    // A function, not a closure: a closure cannot be marked `#[inline(always)]` and was left
+    // out of line, running baseline code inside the AVX2 clone of the tile loop.
+    #[inline(always)]
+    fn texel(bytes: &[u8], w: usize, x: usize, y: usize) -> Vec3 {
         let i = (y * w + x) * 4;
         Vec3::new(srgb_to_linear(bytes[i]), srgb_to_linear(bytes[i + 1]), srgb_to_linear(bytes[i + 2]))
-    };
-    let top = texel(xa, ya).lerp(texel(xb, ya), fx);
-    let bottom = texel(xa, yb).lerp(texel(xb, yb), fx);
+    }
+    let top = texel(bytes, w, xa, ya).lerp(texel(bytes, w, xb, ya), fx);
+    let bottom = texel(bytes, w, xa, yb).lerp(texel(bytes, w, xb, yb), fx);
     top.lerp(bottom, fy)
 }
 
@@ -98,6 +104,7 @@ pub struct SurfaceResponse {
 /// The material of `surface` evaluated at its texture coordinates; a missing material is a
 /// mid-grey Lambertian.
 #[must_use]
+#[inline(always)]
 pub fn surface_response(scene: &Scene, surface: &SurfacePoint) -> SurfaceResponse {
     let Some(material) = scene.geometry.materials.get(surface.material) else {
         return SurfaceResponse { diffuse: Vec3::splat(0.5), specular: Vec3::ZERO, roughness: 1.0 };
@@ -141,6 +148,7 @@ pub(crate) struct Tracer<'a> {
 }
 
 /// A unit vector in the hemisphere about `n`, cosine-distributed, from `(u1, u2)` in [0, 1)^2.
+#[inline(always)]
 fn cosine_direction(n: Vec3, u1: f32, u2: f32) -> Vec3 {
     let (t, b) = n.any_orthonormal_pair();
     let r = u1.sqrt();
@@ -148,10 +156,12 @@ fn cosine_direction(n: Vec3, u1: f32, u2: f32) -> Vec3 {
     (t * (r * phi.cos()) + b * (r * phi.sin()) + n * (1.0 - u1).max(0.0).sqrt()).normalize_or(n)
 }
 
+#[inline(always)]
 fn scale(e: GroupRgb, k: Vec3) -> GroupRgb {
     [e[0] * k, e[1] * k]
 }
 
+#[inline(always)]
 fn add(a: GroupRgb, b: GroupRgb) -> GroupRgb {
     [a[0] + b[0], a[1] + b[1]]
 }
@@ -159,6 +169,7 @@ fn add(a: GroupRgb, b: GroupRgb) -> GroupRgb {
 impl Tracer<'_> {
     /// Radiance leaving a surface point diffusely when lit by direct light only (the shading
     /// of a bounce), per group.
+    #[inline(always)]
     fn diffuse_direct_radiance(&self, surface: &SurfacePoint, sampler: &mut Sampler) -> GroupRgb {
         let response = surface_response(self.scene, surface);
         let e = self.lights.direct(
@@ -179,6 +190,7 @@ impl Tracer<'_> {
     /// shaded with direct light only; emitters seen by a bounce ray are not counted (direct
     /// light sampling already has them). The rays take their places `strata.first..` of a
     /// 2D point set spread over the whole pixel (see [`Strata`]).
+    #[inline(always)]
     pub fn indirect_irradiance(
         &self,
         point: Vec3,
@@ -220,6 +232,7 @@ impl Tracer<'_> {
     /// others in a packet, which may reach the rect lights `emitters`); its bounce rays use
     /// `strata` and its rect light samples `rect_strata`.
     #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
     pub fn camera_ray(
         &self,
         origin: Vec3,
@@ -230,7 +243,13 @@ impl Tracer<'_> {
         rect_strata: Strata,
         sampler: &mut Sampler,
     ) -> GroupRgb {
-        let hit = hit.map(|h| (h.t, self.accel.surface(&h, origin, dir)));
+        // A `match`, not `Option::map`: a closure called from both builds of the tile loop can
+        // stay out of line, with baseline code (see `crate::simd`).
+        #[allow(clippy::manual_map)]
+        let hit = match hit {
+            Some(h) => Some((h.t, self.accel.surface(&h, origin, dir))),
+            None => None,
+        };
         match self.primary(origin, dir, hit, emitters) {
             Primary::Miss => [Vec3::ZERO; 2],
             Primary::Emitter(l) => l,
@@ -249,6 +268,7 @@ impl Tracer<'_> {
     /// emitter in front of the hit, nothing, or a surface with its material evaluated.
     /// Only the rect lights `emitters` are looked for (those the ray's packet may reach,
     /// [`LightSet::emitters_in_reach`]).
+    #[inline(always)]
     pub fn primary(&self, origin: Vec3, dir: Vec3, hit: Option<(f32, SurfacePoint)>, emitters: &[u32]) -> Primary {
         let tmax = hit.map_or(f32::INFINITY, |h| h.0);
         if let Some((_, group, rgb)) = self.lights.emitter_seen_among(origin, dir, tmax, emitters.iter().copied()) {
@@ -263,6 +283,7 @@ impl Tracer<'_> {
 
     /// Irradiance per group (lux per channel) the diffuse part of a camera-ray hit receives:
     /// direct light (rect samples placed by `rect_strata`) plus the bounce estimate (`strata`).
+    #[inline(always)]
     pub fn irradiance(
         &self,
         surface: &SurfacePoint,
@@ -289,6 +310,7 @@ impl Tracer<'_> {
     /// Radiance leaving a camera-ray hit towards the camera: `rho / pi * e` of the diffuse part
     /// (`e` its [`Tracer::irradiance`], computed at this point or interpolated from neighbours;
     /// `None` when the material has no diffuse part) plus the mirror reflection of metals.
+    #[inline(always)]
     pub fn surface_radiance(&self, dir: Vec3, s: &SurfaceHit, e: Option<GroupRgb>, sampler: &mut Sampler) -> GroupRgb {
         let (response, surface) = (&s.response, &s.surface);
         let (p, ng, ns) = (surface.position, surface.geometric_normal, surface.shading_normal);
@@ -312,6 +334,7 @@ impl Tracer<'_> {
     }
 
     /// Radiance seen in a mirror direction: an emitter, or a diffuse surface lit directly.
+    #[inline(always)]
     fn reflection(&self, origin: Vec3, dir: Vec3, sampler: &mut Sampler) -> GroupRgb {
         let hit = self.accel.closest_hit(origin, dir, f32::INFINITY);
         let tmax = hit.map_or(f32::INFINITY, |h| h.t);

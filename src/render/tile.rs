@@ -7,6 +7,12 @@
 //! pixel-by-pixel trace gives, at any thread count. Shadow rays stay one at a time: traced as
 //! packets per light and tile they were slower on real frames (rect-light samples and culled
 //! lights give small, spread packets; measured in docs/BENCHMARKS.md).
+//!
+//! Each band of tiles runs in one of two builds of the same source ([`crate::simd`]): an AVX2 +
+//! FMA clone where the CPU has both, else the baseline; the frame is the same bit for bit
+//! (`SCENE_GEN_NO_SIMD=1` forces the baseline). The call tree under [`Renderer::trace_band`] is
+//! `#[inline(always)]` down to the triangle test, since a function left out of line is compiled
+//! once, for the baseline, and closures called from both builds are avoided for the same reason.
 
 use glam::Vec3;
 use rayon::prelude::*;
@@ -18,6 +24,7 @@ use super::{
     AnchorGrid, Camera, Frame, GroupRgb, Guide, PIXEL_STREAM, PixelOut, Renderer, Sampler, Strata, finite_radiance,
 };
 use crate::render::accel::Hit;
+use crate::simd::Dispatch;
 
 /// Side of a tile, pixels: one tile's rays fill one packet.
 pub(super) const TILE: u32 = 8;
@@ -117,41 +124,93 @@ impl Renderer<'_> {
     /// Runs `job` at the pixels of a `cols x rows` grid (cell `(cx, cy)` is pixel `at(cx, cy)`),
     /// tile by tile, one band of `TILE` rows of cells per sink in `bands`, bands in parallel.
     /// The grid is the whole frame, or the anchors of decoupled shading.
+    ///
+    /// Each band runs in the build of the tile loop that the renderer's [`Dispatch`] picks
+    /// ([`crate::simd`]): the AVX2 clone where the CPU has it, the same frame either way.
     pub(super) fn trace_grid<B: BandSink>(
         &self,
         camera: &Camera,
-        (cols, rows): (u32, u32),
+        grid: (u32, u32),
         at: impl Fn(u32, u32) -> (u32, u32) + Sync,
         job: Job<'_>,
         bands: Vec<B>,
     ) {
-        bands.into_par_iter().enumerate().for_each(|(band, mut sink)| {
-            let mut packet = RayPacket::new();
-            let band_rows = (rows - band as u32 * TILE).min(TILE);
-            for tx in 0..cols.div_ceil(TILE) {
-                let x_end = (tx * TILE + TILE).min(cols);
-                let tile: Vec<(usize, (u32, u32))> = (0..band_rows)
-                    .flat_map(|dy| (tx * TILE..x_end).map(move |cx| (dy, cx)))
-                    .map(|(dy, cx)| {
-                        let cy = band as u32 * TILE + dy;
-                        (dy as usize * cols as usize + cx as usize, at(cx, cy))
-                    })
-                    .filter(|&(slot, (x, y))| match job {
-                        // The anchors of a decoupled frame are finished already.
-                        Job::Shade(Some(grid)) => {
-                            grid.index(x, y).map(|a| sink.put(slot, grid.pixels[a], None)).is_none()
-                        }
-                        _ => true,
-                    })
-                    .collect();
-                self.trace_tile(camera, &tile, job, &mut packet, &mut |slot, pixel, guide| {
-                    sink.put(slot, pixel, guide);
-                });
-            }
+        let dispatch = self.dispatch.supported();
+        bands.into_par_iter().enumerate().for_each(|(band, sink)| match dispatch {
+            // SAFETY: `supported()` gives `Avx2Fma` only when this CPU has AVX2 and FMA.
+            #[cfg(target_arch = "x86_64")]
+            Dispatch::Avx2Fma => unsafe { self.trace_band_avx2(camera, grid, &at, job, band, sink) },
+            _ => self.trace_band(camera, grid, &at, job, band, sink),
         });
     }
 
+    /// The renderer with its tile loop in the build `dispatch` (downgraded to
+    /// [`Dispatch::Generic`] where the CPU lacks it): for tests that compare the two builds
+    /// without touching the process environment.
+    #[cfg(test)]
+    #[must_use]
+    pub(crate) fn with_dispatch(mut self, dispatch: Dispatch) -> Self {
+        self.dispatch = dispatch;
+        self
+    }
+
+    /// [`Renderer::trace_band`] compiled with AVX2 and FMA enabled: the body and everything
+    /// inlined into it (tile, packet traversal, shading, shadow rays) get AVX2 code.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2 and FMA: call it only when [`Dispatch::supported`] returned
+    /// [`Dispatch::Avx2Fma`].
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn trace_band_avx2<B: BandSink>(
+        &self,
+        camera: &Camera,
+        grid: (u32, u32),
+        at: &(impl Fn(u32, u32) -> (u32, u32) + Sync),
+        job: Job<'_>,
+        band: usize,
+        sink: B,
+    ) {
+        self.trace_band(camera, grid, at, job, band, sink);
+    }
+
+    /// Band `band` of [`Renderer::trace_grid`]: its tiles left to right. Always inlined, so that
+    /// each caller (the baseline loop and [`Renderer::trace_band_avx2`]) compiles its own copy
+    /// for its own CPU features.
+    #[inline(always)]
+    fn trace_band<B: BandSink>(
+        &self,
+        camera: &Camera,
+        (cols, rows): (u32, u32),
+        at: &(impl Fn(u32, u32) -> (u32, u32) + Sync),
+        job: Job<'_>,
+        band: usize,
+        mut sink: B,
+    ) {
+        let mut packet = RayPacket::new();
+        let band_rows = (rows - band as u32 * TILE).min(TILE);
+        for tx in 0..cols.div_ceil(TILE) {
+            let x_end = (tx * TILE + TILE).min(cols);
+            let tile: Vec<(usize, (u32, u32))> = (0..band_rows)
+                .flat_map(|dy| (tx * TILE..x_end).map(move |cx| (dy, cx)))
+                .map(|(dy, cx)| {
+                    let cy = band as u32 * TILE + dy;
+                    (dy as usize * cols as usize + cx as usize, at(cx, cy))
+                })
+                .filter(|&(slot, (x, y))| match job {
+                    // The anchors of a decoupled frame are finished already.
+                    Job::Shade(Some(grid)) => grid.index(x, y).map(|a| sink.put(slot, grid.pixels[a], None)).is_none(),
+                    _ => true,
+                })
+                .collect();
+            self.trace_tile(camera, &tile, job, &mut packet, &mut |slot, pixel, guide| {
+                sink.put(slot, pixel, guide);
+            });
+        }
+    }
+
     /// One tile: `cells` are (slot, pixel); each finished pixel goes to `store(slot, ..)`.
+    #[inline(always)]
     fn trace_tile(
         &self,
         camera: &Camera,
@@ -163,11 +222,14 @@ impl Renderer<'_> {
         let basis = camera.basis();
         let origin = camera.position;
         packet.clear();
-        let dirs: Vec<Vec3> =
-            cells.iter().map(|&(_, (x, y))| camera.ray_direction_in(basis, x as f32 + 0.5, y as f32 + 0.5)).collect();
-        for dir in &dirs {
+        // Plain loops into fixed arrays rather than `collect`: the collecting `fold` was left
+        // out of line, and so ran baseline code in the AVX2 clone too (perf, session 5).
+        let mut dirs = [Vec3::ZERO; PACKET_RAYS];
+        for (dir, &(_, (x, y))) in dirs.iter_mut().zip(cells) {
+            *dir = camera.ray_direction_in(basis, x as f32 + 0.5, y as f32 + 0.5);
             packet.push(origin, *dir, f32::INFINITY);
         }
+        let dirs = &dirs[..cells.len()];
         let mut hits: [Option<Hit>; PACKET_RAYS] = [None; PACKET_RAYS];
         self.accel.closest_hits(packet, &mut hits);
         let blockers = Blockers::new();
@@ -177,8 +239,13 @@ impl Renderer<'_> {
             self.lights.emitters_in_reach(packet, &mut emitters);
         }
         let mut labels = Vec::with_capacity(cells.len());
-        for (k, (&(slot, (x, y)), &dir)) in cells.iter().zip(&dirs).enumerate() {
-            let hit = hits[k].map(|h| (h.t, self.accel.surface(&h, origin, dir)));
+        for (k, (&(slot, (x, y)), &dir)) in cells.iter().zip(dirs).enumerate() {
+            // A `match`, not `Option::map`: see `shade_centre`.
+            #[allow(clippy::manual_map)]
+            let hit = match hits[k] {
+                Some(h) => Some((h.t, self.accel.surface(&h, origin, dir))),
+                None => None,
+            };
             let pixel_labels = self.labels(dir, basis, hit.as_ref());
             match job {
                 Job::Labels => store(slot, pixel_labels, None),
@@ -201,6 +268,7 @@ impl Renderer<'_> {
     /// pixel is traced in one packet. Each pixel draws from its own stream in the order it
     /// would alone (strata rotations, then per sample its jitter and its shading), so
     /// interleaving the pixels changes nothing.
+    #[inline(always)]
     fn sample_tile(
         &self,
         tracer: &Tracer<'_>,
@@ -213,33 +281,27 @@ impl Renderer<'_> {
         let n = self.settings.samples_per_axis.max(1);
         let bounce_total = n * n * self.settings.indirect_rays;
         let rect_total = n * n * self.settings.rect_samples_per_axis.pow(2);
-        let mut samplers: Vec<(Sampler, f32, f32)> = cells
-            .iter()
-            .map(|&(_, (x, y))| {
-                let key = u64::from(y) * u64::from(camera.width_px) + u64::from(x);
-                let mut sampler = Sampler::of_hashed(self.settings.seed, PIXEL_STREAM, key);
-                let rotation = sampler.uniform();
-                let rect_rotation = sampler.uniform();
-                (sampler, rotation, rect_rotation)
-            })
-            .collect();
+        let mut samplers: Vec<(Sampler, f32, f32)> = Vec::with_capacity(cells.len());
+        for &(_, (x, y)) in cells {
+            let key = u64::from(y) * u64::from(camera.width_px) + u64::from(x);
+            let mut sampler = Sampler::of_hashed(self.settings.seed, PIXEL_STREAM, key);
+            let rotation = sampler.uniform();
+            let rect_rotation = sampler.uniform();
+            samplers.push((sampler, rotation, rect_rotation));
+        }
         let mut sums = vec![[Vec3::ZERO; 2]; cells.len()];
         let mut hits: [Option<Hit>; PACKET_RAYS] = [None; PACKET_RAYS];
         let mut emitters = Vec::new();
         for j in 0..n {
             for i in 0..n {
                 packet.clear();
-                let dirs: Vec<Vec3> = cells
-                    .iter()
-                    .zip(&mut samplers)
-                    .map(|(&(_, (x, y)), (sampler, _, _))| {
-                        let sx = (i as f32 + sampler.uniform()) / n as f32;
-                        let sy = (j as f32 + sampler.uniform()) / n as f32;
-                        let dir = camera.ray_direction_in(basis, x as f32 + sx, y as f32 + sy);
-                        packet.push(origin, dir, f32::INFINITY);
-                        dir
-                    })
-                    .collect();
+                let mut dirs = [Vec3::ZERO; PACKET_RAYS];
+                for ((dir, &(_, (x, y))), (sampler, _, _)) in dirs.iter_mut().zip(cells).zip(&mut samplers) {
+                    let sx = (i as f32 + sampler.uniform()) / n as f32;
+                    let sy = (j as f32 + sampler.uniform()) / n as f32;
+                    *dir = camera.ray_direction_in(basis, x as f32 + sx, y as f32 + sy);
+                    packet.push(origin, *dir, f32::INFINITY);
+                }
                 self.accel.closest_hits(packet, &mut hits);
                 self.lights.emitters_in_reach(packet, &mut emitters);
                 for (k, (sampler, rotation, rect_rotation)) in samplers.iter_mut().enumerate() {
@@ -268,6 +330,7 @@ impl Renderer<'_> {
     /// interpolated pixel without a mirror draws nothing), which leaves every used number
     /// where it was.
     #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
     fn shade_centre(
         &self,
         tracer: &Tracer<'_>,
@@ -287,12 +350,21 @@ impl Renderer<'_> {
         let key = u64::from(y) * u64::from(camera.width_px) + u64::from(x);
         let mut sampler = Sampler::of_hashed(self.settings.seed, PIXEL_STREAM, key);
         let mut strata = None;
-        let e = (s.response.diffuse != Vec3::ZERO).then(|| {
-            grid.and_then(|g| g.irradiance(x, y, &s.surface, labels.instance_id, t)).unwrap_or_else(|| {
+        // `match`es, not `then` / `unwrap_or_else` closures: a closure called from both builds
+        // of the tile loop was compiled once, out of line, with baseline code (perf showed a
+        // quarter of the AVX2 clone's eval frame in it).
+        let interpolated = match grid {
+            Some(g) if s.response.diffuse != Vec3::ZERO => g.irradiance(x, y, &s.surface, labels.instance_id, t),
+            _ => None,
+        };
+        let e = match interpolated {
+            _ if s.response.diffuse == Vec3::ZERO => None,
+            Some(e) => Some(e),
+            None => {
                 let (bounce, rect) = *strata.insert(self.pixel_strata(&mut sampler));
-                tracer.irradiance(&s.surface, bounce, rect, &mut sampler)
-            })
-        });
+                Some(tracer.irradiance(&s.surface, bounce, rect, &mut sampler))
+            }
+        };
         if strata.is_none() && self.settings.specular && s.response.specular != Vec3::ZERO {
             self.pixel_strata(&mut sampler);
         }
@@ -300,6 +372,7 @@ impl Renderer<'_> {
     }
 
     /// The pixel's bounce and rect-light strata, drawn first from its stream.
+    #[inline(always)]
     pub(super) fn pixel_strata(&self, sampler: &mut Sampler) -> (Strata, Strata) {
         let rotation = sampler.uniform();
         let rect_rotation = sampler.uniform();
@@ -310,6 +383,7 @@ impl Renderer<'_> {
 
     /// A shaded pixel from its irradiance `e` (`None` without a diffuse part), with its
     /// [`Guide`] where it has one.
+    #[inline(always)]
     pub(super) fn finish(
         &self,
         tracer: &Tracer<'_>,
@@ -328,5 +402,67 @@ impl Renderer<'_> {
         });
         out.radiance = finite_radiance(tracer.surface_radiance(dir, s, e, sampler));
         (out, guide)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::camera_spec::CameraSpec;
+    use crate::render::{Camera, Frame, RenderSettings, Renderer, ShadingRate};
+    use crate::scene::Scene;
+    use crate::sensor::Catalog;
+    use crate::simd::Dispatch;
+
+    /// House 0 (textures, windows lit by the sun, ceiling lights, metals) seen from one pose of
+    /// its walk by a 4 mm IMX174 binned to 48 x 32 pixels: small enough for a debug build.
+    fn house_view() -> (Scene, Camera) {
+        let library = crate::house::embedded_library().unwrap();
+        let resolved = CameraSpec { max_width_px: Some(48), ..CameraSpec::from_inline("IMX174,focal_mm=4").unwrap() }
+            .resolve(&Catalog::embedded())
+            .unwrap();
+        let params = crate::trajectory::TrajectoryParams { height_m: resolved.spec.height_m, ..Default::default() };
+        let house = crate::house::walked_house(&library, 0, &params).unwrap();
+        let camera = resolved.camera_at(&house.walk.poses[house.walk.poses.len() / 2]);
+        (house.scene, camera)
+    }
+
+    /// Every job of the tile loop (labels, one centre ray, decoupled anchors and interpolation,
+    /// several samples with bounces, rect samples and mirrors) gives the same frame in both
+    /// builds of the loop. Bit equality holds because no `a * b + c` is contracted into an
+    /// FMA (module docs of `crate::simd`); a build that fused would change low bits here.
+    #[test]
+    fn the_avx2_clone_renders_the_frame_of_the_baseline() {
+        let (scene, camera) = house_view();
+        if Dispatch::Avx2Fma.supported() != Dispatch::Avx2Fma {
+            eprintln!("this CPU has no AVX2 + FMA: both runs take the baseline path");
+        }
+        let decoupled = RenderSettings {
+            shading: ShadingRate::Decoupled { stride: 3, min_width_px: 0 },
+            ..RenderSettings::preview()
+        };
+        let cases = [
+            ("preview", RenderSettings::preview()),
+            ("decoupled", decoupled),
+            ("standard", RenderSettings { seed: 5, ..RenderSettings::standard() }),
+        ];
+        for (name, settings) in cases {
+            let render = |dispatch| -> Frame {
+                Renderer::new(&scene, settings).with_dispatch(dispatch).render(&camera).unwrap()
+            };
+            let generic = render(Dispatch::Generic);
+            let avx2 = render(Dispatch::Avx2Fma);
+            // Not a black frame: the comparison means something.
+            assert!(generic.day_nit.iter().any(|c| c[1] > 0.0), "{name}");
+            let bits = |f: &Frame| -> Vec<u32> {
+                let rgb = f.day_nit.iter().chain(&f.night_nit).chain(&f.normal).flatten();
+                rgb.chain(&f.depth_m).map(|v| v.to_bits()).collect()
+            };
+            assert_eq!(bits(&generic), bits(&avx2), "{name}: radiance, normals or depth differ");
+            assert_eq!(generic, avx2, "{name}");
+        }
+        let labels = |dispatch| {
+            Renderer::new(&scene, RenderSettings::preview()).with_dispatch(dispatch).render_labels(&camera).unwrap()
+        };
+        assert_eq!(labels(Dispatch::Generic), labels(Dispatch::Avx2Fma));
     }
 }
