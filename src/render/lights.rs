@@ -115,37 +115,11 @@ pub(crate) struct RectLight {
     pub group: usize,
     /// The four corners `center + u * s + v * r`, `s, r` in {-0.5, 0.5}, for the importance test.
     pub corners: [Vec3; 4],
-    /// [`RectLight::seen_bounds`], computed once.
+    /// The box a camera ray must enter to see the emitter ([`seen_bounds`]).
     pub seen_bounds: (Vec3, Vec3),
 }
 
 impl RectLight {
-    /// A box holding every point [`RectLight::hit_front`] accepts, grown by
-    /// [`EMITTER_BOUNDS_PAD_M`] plus a relative `1e-4` (far wider than the rounding of its
-    /// `|s|, |r| <= 0.5`), so a ray that sees the emitter never misses the box.
-    ///
-    /// The accepted points lie on the plane through `center` normal to `normal`, where
-    /// `w = p - center` has `w . u = s |u|^2`, `w . v = r |v|^2`: when `u`, `v` and `normal` are
-    /// not orthogonal (a light's direction is its own field) that parallelogram is not the one
-    /// spanned by `u` and `v`, so its corners are solved for. Where the three are dependent the
-    /// region is unbounded and so is the box.
-    fn seen_bounds(&self) -> (Vec3, Vec3) {
-        let rows = glam::Mat3::from_cols(self.u, self.v, self.normal).transpose();
-        let det = rows.determinant();
-        let scale = self.u.length() * self.v.length() * self.normal.length();
-        let independent = det.is_finite() && det.abs() > 1e-6 * scale;
-        if !independent {
-            return (Vec3::NEG_INFINITY, Vec3::INFINITY);
-        }
-        let inverse = rows.inverse();
-        let (uu, vv) = (self.u.length_squared(), self.v.length_squared());
-        let corners = RECT_CORNERS.map(|(s, r)| self.center + inverse * Vec3::new(s * uu, r * vv, 0.0));
-        let lo = corners.iter().fold(Vec3::INFINITY, |a, &c| a.min(c));
-        let hi = corners.iter().fold(Vec3::NEG_INFINITY, |a, &c| a.max(c));
-        let pad = Vec3::splat(EMITTER_BOUNDS_PAD_M) + lo.abs().max(hi.abs()) * 1e-4;
-        (lo - pad, hi + pad)
-    }
-
     /// Distance to the emitting face along a unit ray that meets it from the front, if it does.
     #[inline(always)]
     pub fn hit_front(&self, origin: Vec3, direction: Vec3, tmax: f32) -> Option<f32> {
@@ -215,7 +189,7 @@ impl LightSet {
                     let normal = light.direction.unwrap_or(cross).normalize_or_zero();
                     if area_m2 > 0.0 && normal != Vec3::ZERO && center.is_finite() {
                         let corners = RECT_CORNERS.map(|(s, r)| center + u * s + v * r);
-                        let mut rect = RectLight {
+                        set.rects.push(RectLight {
                             center,
                             u,
                             v,
@@ -225,10 +199,8 @@ impl LightSet {
                             luminous: intensity,
                             group,
                             corners,
-                            seen_bounds: (Vec3::NEG_INFINITY, Vec3::INFINITY),
-                        };
-                        rect.seen_bounds = rect.seen_bounds();
-                        set.rects.push(rect);
+                            seen_bounds: seen_bounds(center, u, v, normal),
+                        });
                         set.reference_nit[group] = set.reference_nit[group].max(intensity);
                     }
                 }
@@ -370,8 +342,9 @@ impl LightSet {
         best
     }
 
-    /// The rect lights some ray of `packet` may see, into `out` (ascending): every camera ray
-    /// tested every window, about 4 % of an evaluator frame, where a tile sees one at most.
+    /// The rect lights some ray of `packet` may see, into `out` (ascending). Why per packet:
+    /// every camera ray tested every window, about 4 % of an evaluator frame, while most tiles
+    /// can reach none.
     #[inline(always)]
     pub fn emitters_in_reach(&self, packet: &RayPacket, out: &mut Vec<u32>) {
         out.clear();
@@ -385,6 +358,32 @@ const IMPORTANCE_CACHE: usize = 64;
 
 /// The corners of a rect light in its own `(u, v)` coordinates.
 const RECT_CORNERS: [(f32, f32); 4] = [(-0.5, -0.5), (0.5, -0.5), (0.5, 0.5), (-0.5, 0.5)];
+
+/// A box holding every point [`RectLight::hit_front`] accepts on the rect light at `center`
+/// spanned by `u`, `v` with `normal`, grown by [`EMITTER_BOUNDS_PAD_M`] plus a relative `1e-4`
+/// (far wider than the rounding of its `|s|, |r| <= 0.5`), so a ray that sees the emitter never
+/// misses the box.
+///
+/// The accepted points lie on the plane through `center` normal to `normal`, where
+/// `w = p - center` has `w . u = s |u|^2`, `w . v = r |v|^2`: when `u`, `v` and `normal` are not
+/// orthogonal (a light's direction is its own field) that parallelogram is not the one spanned
+/// by `u` and `v`, so its corners are solved for. Where the three are dependent the region is
+/// unbounded and so is the box.
+fn seen_bounds(center: Vec3, u: Vec3, v: Vec3, normal: Vec3) -> (Vec3, Vec3) {
+    let rows = glam::Mat3::from_cols(u, v, normal).transpose();
+    let det = rows.determinant();
+    let independent = det.is_finite() && det.abs() > 1e-6 * u.length() * v.length() * normal.length();
+    if !independent {
+        return (Vec3::NEG_INFINITY, Vec3::INFINITY);
+    }
+    let inverse = rows.inverse();
+    let (uu, vv) = (u.length_squared(), v.length_squared());
+    let corners = RECT_CORNERS.map(|(s, r)| center + inverse * Vec3::new(s * uu, r * vv, 0.0));
+    let lo = corners.iter().fold(Vec3::INFINITY, |a, &c| a.min(c));
+    let hi = corners.iter().fold(Vec3::NEG_INFINITY, |a, &c| a.max(c));
+    let pad = Vec3::splat(EMITTER_BOUNDS_PAD_M) + lo.abs().max(hi.abs()) * 1e-4;
+    (lo - pad, hi + pad)
+}
 
 /// Russian roulette for a light of importance `b` in a group of total `total`: `Some(weight)`
 /// when it is to be traced.

@@ -251,7 +251,7 @@ impl Renderer<'_> {
                 Job::Labels => store(slot, pixel_labels, None),
                 Job::Shade(grid) => {
                     let (pixel, guide) =
-                        self.shade_centre(&tracer, camera, (x, y), dir, (hit, &emitters), pixel_labels, grid);
+                        self.shade_centre(&tracer, camera, (x, y), dir, hit, &emitters, pixel_labels, grid);
                     store(slot, pixel, guide);
                 }
                 Job::Samples => labels.push(pixel_labels),
@@ -337,7 +337,8 @@ impl Renderer<'_> {
         camera: &Camera,
         (x, y): (u32, u32),
         dir: Vec3,
-        (hit, emitters): (Option<(f32, super::accel::SurfacePoint)>, &[u32]),
+        hit: Option<(f32, super::accel::SurfacePoint)>,
+        emitters: &[u32],
         labels: PixelOut,
         grid: Option<&AnchorGrid>,
     ) -> (PixelOut, Option<Guide>) {
