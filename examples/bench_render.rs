@@ -494,6 +494,19 @@ fn run_case(setup: &Setup, args: &Args, case: &str) -> BoxResult<()> {
             let (times, frame) = timed(|| pool.install(|| eval.render(&camera)));
             (times, 0, serde_json::json!({ "frame_fnv": frame_hash(&frame?) }))
         }
+        "labels" => {
+            let eval = Renderer::new(&setup.scene, scene_gen::evaluate::eval_render_settings());
+            let (times, frame) = timed(|| pool.install(|| eval.render_labels(&camera)));
+            (times, 0, serde_json::json!({ "frame_fnv": frame_hash(&frame?) }))
+        }
+        "ids" => {
+            let eval = Renderer::new(&setup.scene, scene_gen::evaluate::eval_render_settings());
+            let (times, ids) = timed(|| pool.install(|| eval.render_ids(&camera)));
+            let ids = ids?;
+            let bytes: Vec<u8> = ids.instance_id.iter().flat_map(|v| v.to_le_bytes()).collect();
+            let hash = format!("{:016x}", scene_gen::rng::fnv1a64(&bytes));
+            (times, 0, serde_json::json!({ "instance_fnv": hash }))
+        }
         "decoupled" => {
             let full =
                 RenderSettings { light_cull: args.cull, rect_samples_per_axis: args.rect, ..RenderSettings::preview() };
@@ -524,9 +537,10 @@ fn run_case(setup: &Setup, args: &Args, case: &str) -> BoxResult<()> {
             )
         }
         _ => {
-            return Err(
-                format!("--case {case}: expected primary, shadow, direct, pair, speckle, eval or decoupled").into()
-            );
+            return Err(format!(
+                "--case {case}: expected primary, shadow, direct, pair, speckle, eval, labels, ids or decoupled"
+            )
+            .into());
         }
     };
     let b = best(&times);

@@ -540,6 +540,20 @@ fn contact_time_s(walk: &trajectory::Trajectory, pose_index: usize, lo: glam::Ve
     t0 + frac.clamp(0.0, 1.0) * (t_k - t0)
 }
 
+/// Visible pixels of each threshold in a frame's ids, by instance id (ascending).
+fn threshold_pixels(class_id: &[u16], instance_id: &[u32], thresholds: &BTreeSet<u32>) -> Vec<(u32, u32)> {
+    let mut counts: BTreeMap<u32, u32> = BTreeMap::new();
+    // The class buffer finds threshold pixels first: a set lookup at every pixel of every pose
+    // was about 8 % of a full-resolution evaluation (perf).
+    let on_threshold = class_id.iter().zip(instance_id).filter(|(c, _)| u32::from(**c) == THRESHOLD_CLASS_ID);
+    for (_, &id) in on_threshold {
+        if thresholds.contains(&id) {
+            *counts.entry(id).or_insert(0) += 1;
+        }
+    }
+    counts.into_iter().collect()
+}
+
 /// Whether an anchor's 8-bit image shows anything (module docs, "usable images").
 fn image_usable(grey: &[u8]) -> bool {
     let n = grey.len().max(1) as f64;
@@ -728,22 +742,23 @@ fn compute(
                 let pose = walk.poses[i];
                 let camera = resolved.camera_at(&pose);
                 let t0 = Instant::now();
-                // Threshold-window poses need only what is visible: one label ray per pixel.
-                let frame: Frame =
-                    if role == 0 { renderer.render_labels(&camera)? } else { renderer.render(&camera)? };
-                let mut times = [secs(t0), 0.0, 0.0];
-                let mut counts: BTreeMap<u32, u32> = BTreeMap::new();
-                // The class buffer finds threshold pixels first: a set lookup at every pixel of
-                // every pose was about 8 % of a full-resolution evaluation (perf).
-                let on_threshold =
-                    frame.class_id.iter().zip(&frame.instance_id).filter(|(c, _)| u32::from(**c) == THRESHOLD_CLASS_ID);
-                for (_, &id) in on_threshold {
-                    if threshold_ids.contains(&id) {
-                        *counts.entry(id).or_insert(0) += 1;
-                    }
+                // Threshold-window poses need only what is visible: ids from one ray per pixel.
+                if role == 0 {
+                    let ids = renderer.render_ids(&camera)?;
+                    return Ok(PoseResult {
+                        thresholds: threshold_pixels(&ids.class_id, &ids.instance_id, &threshold_ids),
+                        time_s: f64::from(pose.time_s),
+                        grey: Vec::new(),
+                        gt: None,
+                        detections: Vec::new(),
+                        usable: Vec::new(),
+                        times: [secs(t0), 0.0, 0.0],
+                    });
                 }
+                let frame: Frame = renderer.render(&camera)?;
+                let mut times = [secs(t0), 0.0, 0.0];
                 let mut out = PoseResult {
-                    thresholds: counts.into_iter().collect(),
+                    thresholds: threshold_pixels(&frame.class_id, &frame.instance_id, &threshold_ids),
                     time_s: f64::from(pose.time_s),
                     grey: Vec::new(),
                     gt: None,
@@ -751,9 +766,6 @@ fn compute(
                     usable: Vec::new(),
                     times,
                 };
-                if role == 0 {
-                    return Ok(out);
-                }
                 let t1 = Instant::now();
                 let gt =
                     (role == 2).then(|| frame_ground_truth(&frame, &scene, &camera, &GroundTruthConfig::default()));

@@ -734,6 +734,12 @@ fn generated_scenes_render_and_scale() {
     assert_eq!(labels.normal, frame.normal);
     assert!(frame.day_nit.iter().any(|c| c.iter().any(|&v| v > 0.0)), "the full render is lit");
     assert!(labels.day_nit.iter().chain(&labels.night_nit).all(|c| *c == [0.0; 3]));
+    // So does the ids-only pass.
+    let ids = renderer.render_ids(&cam).unwrap();
+    assert_eq!((ids.width, ids.height), (32, 24));
+    assert_eq!(ids.instance_id, frame.instance_id);
+    assert_eq!(ids.class_id, frame.class_id);
+    assert!(ids.instance_id.iter().any(|&id| id != 0), "some object or threshold is in view");
     let scale = LightScale::to_targets(&renderer, 20.0, 2.0, 0.75).unwrap();
     assert!(scale.day.is_finite() && scale.night.is_finite());
 }

@@ -377,6 +377,13 @@ impl Accel {
         }
     }
 
+    /// The scene node of `triangle` (what [`Accel::surface`] reports as `node`).
+    #[must_use]
+    #[inline(always)]
+    pub fn triangle_node(&self, triangle: u32) -> usize {
+        self.attrs[triangle as usize].node as usize
+    }
+
     /// Instance and class id of the node a triangle belongs to.
     #[must_use]
     #[inline(always)]

@@ -21,7 +21,8 @@ use super::lights::Blockers;
 use super::packet::{PACKET_RAYS, RayPacket};
 use super::shade::{Primary, SurfaceHit, Tracer};
 use super::{
-    AnchorGrid, Camera, Frame, GroupRgb, Guide, PIXEL_STREAM, PixelOut, Renderer, Sampler, Strata, finite_radiance,
+    AnchorGrid, Camera, Frame, GroupRgb, Guide, IdFrame, PIXEL_STREAM, PixelOut, Renderer, Sampler, Strata,
+    finite_radiance,
 };
 use crate::render::accel::Hit;
 use crate::simd::Dispatch;
@@ -33,6 +34,8 @@ const _: () = assert!((TILE * TILE) as usize == PACKET_RAYS);
 /// What a tile computes at each of its pixels.
 #[derive(Clone, Copy)]
 pub(super) enum Job<'g> {
+    /// Instance and class ids only: no surface is interpolated (see [`IdBand`]).
+    Ids,
     /// Depth, ids and normal only (black radiance).
     Labels,
     /// The full pixel from its centre ray (one camera ray per pixel); with a grid, the
@@ -43,6 +46,29 @@ pub(super) enum Job<'g> {
     Samples,
 }
 
+/// Which pixel each cell of a traced grid is: a plain `enum` with an `#[inline(always)]` method,
+/// not a closure, because a closure called from both builds of the tile loop is compiled once,
+/// out of line, for the baseline (perf showed it at 7 % of an ids-only frame).
+#[derive(Clone, Copy)]
+pub(super) enum Cells {
+    /// Cell `(x, y)` is pixel `(x, y)`.
+    Pixels,
+    /// Cell `(i, j)` is the anchor at pixel `(i stride, j stride)`, clamped to the last pixel of
+    /// a `width x height` frame ([`AnchorGrid`]'s layout).
+    Anchors { stride: u32, width: u32, height: u32 },
+}
+
+impl Cells {
+    /// The pixel of cell `(cx, cy)`.
+    #[inline(always)]
+    pub(super) fn pixel(self, cx: u32, cy: u32) -> (u32, u32) {
+        match self {
+            Cells::Pixels => (cx, cy),
+            Cells::Anchors { stride, width, height } => ((cx * stride).min(width - 1), (cy * stride).min(height - 1)),
+        }
+    }
+}
+
 /// Where the finished pixels of one band of tiles go: `slot` counts row-major from the band's
 /// first cell.
 pub(super) trait BandSink: Send {
@@ -51,6 +77,7 @@ pub(super) trait BandSink: Send {
 
 /// Cells with their guides (the anchors of decoupled shading).
 impl BandSink for &mut [(PixelOut, Option<Guide>)] {
+    #[inline(always)]
     fn put(&mut self, slot: usize, pixel: PixelOut, guide: Option<Guide>) {
         self[slot] = (pixel, guide);
     }
@@ -68,6 +95,7 @@ pub(super) struct FrameBand<'f> {
 }
 
 impl BandSink for FrameBand<'_> {
+    #[inline(always)]
     fn put(&mut self, slot: usize, p: PixelOut, _: Option<Guide>) {
         self.day_nit[slot] = p.radiance[0].to_array();
         self.night_nit[slot] = p.radiance[1].to_array();
@@ -75,6 +103,42 @@ impl BandSink for FrameBand<'_> {
         self.instance_id[slot] = p.instance_id;
         self.class_id[slot] = p.class_id;
         self.normal[slot] = p.normal.to_array();
+    }
+}
+
+/// One band of an [`IdFrame`]: only the two id buffers are written (a [`Frame`] at 1936x1216
+/// is about 110 MB of buffers to fill; its ids are 14 MB).
+pub(super) struct IdBand<'f> {
+    instance_id: &'f mut [u32],
+    class_id: &'f mut [u16],
+}
+
+impl BandSink for IdBand<'_> {
+    #[inline(always)]
+    fn put(&mut self, slot: usize, p: PixelOut, _: Option<Guide>) {
+        self.instance_id[slot] = p.instance_id;
+        self.class_id[slot] = p.class_id;
+    }
+}
+
+impl IdFrame {
+    /// A `w x h` frame of zeroed ids, for [`Renderer::trace_grid`] to fill.
+    pub(super) fn blank(w: u32, h: u32) -> IdFrame {
+        let n = w as usize * h as usize;
+        IdFrame { width: w, height: h, instance_id: vec![0; n], class_id: vec![0; n] }
+    }
+
+    /// The frame's ids in bands of `TILE` rows.
+    pub(super) fn bands(&mut self) -> Vec<IdBand<'_>> {
+        let len = self.width as usize * TILE as usize;
+        if len == 0 {
+            return Vec::new();
+        }
+        self.instance_id
+            .chunks_mut(len)
+            .zip(self.class_id.chunks_mut(len))
+            .map(|(instance_id, class_id)| IdBand { instance_id, class_id })
+            .collect()
     }
 }
 
@@ -121,7 +185,7 @@ impl Frame {
 }
 
 impl Renderer<'_> {
-    /// Runs `job` at the pixels of a `cols x rows` grid (cell `(cx, cy)` is pixel `at(cx, cy)`),
+    /// Runs `job` at the pixels of a `cols x rows` grid (cell `(cx, cy)` is pixel `at.pixel(cx, cy)`),
     /// tile by tile, one band of `TILE` rows of cells per sink in `bands`, bands in parallel.
     /// The grid is the whole frame, or the anchors of decoupled shading.
     ///
@@ -131,7 +195,7 @@ impl Renderer<'_> {
         &self,
         camera: &Camera,
         grid: (u32, u32),
-        at: impl Fn(u32, u32) -> (u32, u32) + Sync,
+        at: Cells,
         job: Job<'_>,
         bands: Vec<B>,
     ) {
@@ -139,8 +203,8 @@ impl Renderer<'_> {
         bands.into_par_iter().enumerate().for_each(|(band, sink)| match dispatch {
             // SAFETY: `supported()` gives `Avx2Fma` only when this CPU has AVX2 and FMA.
             #[cfg(target_arch = "x86_64")]
-            Dispatch::Avx2Fma => unsafe { self.trace_band_avx2(camera, grid, &at, job, band, sink) },
-            _ => self.trace_band(camera, grid, &at, job, band, sink),
+            Dispatch::Avx2Fma => unsafe { self.trace_band_avx2(camera, grid, at, job, band, sink) },
+            _ => self.trace_band(camera, grid, at, job, band, sink),
         });
     }
 
@@ -166,7 +230,7 @@ impl Renderer<'_> {
         &self,
         camera: &Camera,
         grid: (u32, u32),
-        at: &(impl Fn(u32, u32) -> (u32, u32) + Sync),
+        at: Cells,
         job: Job<'_>,
         band: usize,
         sink: B,
@@ -182,42 +246,46 @@ impl Renderer<'_> {
         &self,
         camera: &Camera,
         (cols, rows): (u32, u32),
-        at: &(impl Fn(u32, u32) -> (u32, u32) + Sync),
+        at: Cells,
         job: Job<'_>,
         band: usize,
         mut sink: B,
     ) {
         let mut packet = RayPacket::new();
         let band_rows = (rows - band as u32 * TILE).min(TILE);
+        let mut tile = [(0usize, (0u32, 0u32)); PACKET_RAYS];
         for tx in 0..cols.div_ceil(TILE) {
             let x_end = (tx * TILE + TILE).min(cols);
-            let tile: Vec<(usize, (u32, u32))> = (0..band_rows)
-                .flat_map(|dy| (tx * TILE..x_end).map(move |cx| (dy, cx)))
-                .map(|(dy, cx)| {
-                    let cy = band as u32 * TILE + dy;
-                    (dy as usize * cols as usize + cx as usize, at(cx, cy))
-                })
-                .filter(|&(slot, (x, y))| match job {
+            let mut len = 0;
+            for dy in 0..band_rows {
+                let cy = band as u32 * TILE + dy;
+                for cx in tx * TILE..x_end {
+                    let slot = dy as usize * cols as usize + cx as usize;
+                    let (x, y) = at.pixel(cx, cy);
                     // The anchors of a decoupled frame are finished already.
-                    Job::Shade(Some(grid)) => grid.index(x, y).map(|a| sink.put(slot, grid.pixels[a], None)).is_none(),
-                    _ => true,
-                })
-                .collect();
-            self.trace_tile(camera, &tile, job, &mut packet, &mut |slot, pixel, guide| {
-                sink.put(slot, pixel, guide);
-            });
+                    if let Job::Shade(Some(grid)) = job
+                        && let Some(a) = grid.index(x, y)
+                    {
+                        sink.put(slot, grid.pixels[a], None);
+                        continue;
+                    }
+                    tile[len] = (slot, (x, y));
+                    len += 1;
+                }
+            }
+            self.trace_tile(camera, &tile[..len], job, &mut packet, &mut sink);
         }
     }
 
-    /// One tile: `cells` are (slot, pixel); each finished pixel goes to `store(slot, ..)`.
+    /// One tile: `cells` are (slot, pixel); each finished pixel goes to `sink.put(slot, ..)`.
     #[inline(always)]
-    fn trace_tile(
+    fn trace_tile<B: BandSink>(
         &self,
         camera: &Camera,
         cells: &[(usize, (u32, u32))],
         job: Job<'_>,
         packet: &mut RayPacket,
-        store: &mut dyn FnMut(usize, PixelOut, Option<Guide>),
+        sink: &mut B,
     ) {
         let basis = camera.basis();
         let origin = camera.position;
@@ -232,6 +300,12 @@ impl Renderer<'_> {
         let dirs = &dirs[..cells.len()];
         let mut hits: [Option<Hit>; PACKET_RAYS] = [None; PACKET_RAYS];
         self.accel.closest_hits(packet, &mut hits);
+        if let Job::Ids = job {
+            for (&(slot, _), hit) in cells.iter().zip(hits) {
+                sink.put(slot, self.ids(hit), None);
+            }
+            return;
+        }
         let blockers = Blockers::new();
         let tracer = self.tracer(&blockers);
         let mut emitters = Vec::new();
@@ -248,18 +322,18 @@ impl Renderer<'_> {
             };
             let pixel_labels = self.labels(dir, basis, hit.as_ref());
             match job {
-                Job::Labels => store(slot, pixel_labels, None),
+                Job::Ids | Job::Labels => sink.put(slot, pixel_labels, None),
                 Job::Shade(grid) => {
                     let (pixel, guide) =
                         self.shade_centre(&tracer, camera, (x, y), dir, hit, &emitters, pixel_labels, grid);
-                    store(slot, pixel, guide);
+                    sink.put(slot, pixel, guide);
                 }
                 Job::Samples => labels.push(pixel_labels),
             }
         }
         if let Job::Samples = job {
             for (&(slot, _), pixel) in cells.iter().zip(self.sample_tile(&tracer, camera, cells, labels, packet)) {
-                store(slot, pixel, None);
+                sink.put(slot, pixel, None);
             }
         }
     }
@@ -465,5 +539,14 @@ mod tests {
             Renderer::new(&scene, RenderSettings::preview()).with_dispatch(dispatch).render_labels(&camera).unwrap()
         };
         assert_eq!(labels(Dispatch::Generic), labels(Dispatch::Avx2Fma));
+        // The ids-only pass gives the ids of a decoupled frame (anchors filled from their own
+        // tiles), in both builds.
+        let frame = Renderer::new(&scene, decoupled).render(&camera).unwrap();
+        for dispatch in [Dispatch::Generic, Dispatch::Avx2Fma] {
+            let ids = Renderer::new(&scene, decoupled).with_dispatch(dispatch).render_ids(&camera).unwrap();
+            assert_eq!(ids.instance_id, frame.instance_id, "{dispatch:?}");
+            assert_eq!(ids.class_id, frame.class_id, "{dispatch:?}");
+        }
+        assert!(frame.instance_id.iter().any(|&id| id != 0));
     }
 }
