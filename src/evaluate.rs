@@ -554,6 +554,36 @@ fn threshold_pixels(class_id: &[u16], instance_id: &[u32], thresholds: &BTreeSet
     counts.into_iter().collect()
 }
 
+/// How far (metres) a threshold's box is grown before it is projected: its mesh lies inside the
+/// box it records, this only absorbs rounding.
+const THRESHOLD_BOX_MARGIN_M: f32 = 0.01;
+
+/// [`threshold_pixels`] of the frame `camera` sees, traced only over the pixels each threshold's
+/// box can cover ([`crate::render::Camera::box_pixels`]): the same rays through the same pixel
+/// centres, so the same counts, for a small fraction of the rays of a whole frame.
+fn threshold_pixels_in_boxes(
+    renderer: &Renderer<'_>,
+    camera: &crate::render::Camera,
+    thresholds: &[crate::scene::Threshold],
+) -> Result<Vec<(u32, u32)>, RenderError> {
+    let margin = glam::Vec3::splat(THRESHOLD_BOX_MARGIN_M);
+    let mut counts: BTreeMap<u32, u32> = BTreeMap::new();
+    for t in thresholds {
+        let Some(rect) = camera.box_pixels(t.min - margin, t.max + margin) else { continue };
+        let ids = renderer.render_ids_in(camera, rect)?;
+        let on = ids
+            .class_id
+            .iter()
+            .zip(&ids.instance_id)
+            .filter(|&(&c, &id)| u32::from(c) == THRESHOLD_CLASS_ID && id == t.instance_id)
+            .count();
+        if on > 0 {
+            *counts.entry(t.instance_id).or_insert(0) += on as u32;
+        }
+    }
+    Ok(counts.into_iter().collect())
+}
+
 /// Whether an anchor's 8-bit image shows anything (module docs, "usable images").
 fn image_usable(grey: &[u8]) -> bool {
     let n = grey.len().max(1) as f64;
@@ -742,11 +772,11 @@ fn compute(
                 let pose = walk.poses[i];
                 let camera = resolved.camera_at(&pose);
                 let t0 = Instant::now();
-                // Threshold-window poses need only what is visible: ids from one ray per pixel.
+                // Threshold-window poses need only each threshold's visible pixels: ids from
+                // one ray per pixel, over the pixels its box can cover.
                 if role == 0 {
-                    let ids = renderer.render_ids(&camera)?;
                     return Ok(PoseResult {
-                        thresholds: threshold_pixels(&ids.class_id, &ids.instance_id, &threshold_ids),
+                        thresholds: threshold_pixels_in_boxes(&renderer, &camera, &scene.thresholds)?,
                         time_s: f64::from(pose.time_s),
                         grey: Vec::new(),
                         gt: None,
@@ -992,4 +1022,38 @@ fn compute(
         fitness,
         timing_s: Some(timing),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sensor::Catalog;
+
+    /// Counting each threshold over its box's pixels gives the counts of the whole frame, on
+    /// the poses before every crossing of a house (where thresholds are near, below and beside
+    /// the camera) for a downward and a level camera.
+    #[test]
+    fn threshold_counts_in_boxes_equal_whole_frame_counts() {
+        let library = embedded_library().unwrap();
+        for spec in ["IMX174,focal_mm=2.5,pitch_deg=-40", "IMX174,focal_mm=6,pitch_deg=0"] {
+            let spec = CameraSpec { max_width_px: Some(96), ..CameraSpec::from_inline(spec).unwrap() };
+            let resolved = spec.resolve(&Catalog::embedded()).unwrap();
+            let params = TrajectoryParams { height_m: resolved.spec.height_m, ..TrajectoryParams::default() };
+            let WalkedHouse { scene, walk } = walked_house(&library, 1, &params).unwrap();
+            let renderer = Renderer::new(&scene, RenderSettings::preview());
+            let ids: BTreeSet<u32> = scene.thresholds.iter().map(|t| t.instance_id).collect();
+            let mut seen = 0;
+            for c in &walk.crossings {
+                for i in c.pose_index.saturating_sub(4)..=c.pose_index {
+                    let camera = resolved.camera_at(&walk.poses[i]);
+                    let whole = renderer.render_ids(&camera).unwrap();
+                    let expected = threshold_pixels(&whole.class_id, &whole.instance_id, &ids);
+                    let boxed = threshold_pixels_in_boxes(&renderer, &camera, &scene.thresholds).unwrap();
+                    assert_eq!(boxed, expected, "pose {i}");
+                    seen += expected.len();
+                }
+            }
+            assert!(seen > 0, "some threshold is in view on some pose");
+        }
+    }
 }

@@ -736,7 +736,7 @@ fn generated_scenes_render_and_scale() {
     assert!(labels.day_nit.iter().chain(&labels.night_nit).all(|c| *c == [0.0; 3]));
     // So does the ids-only pass.
     let ids = renderer.render_ids(&cam).unwrap();
-    assert_eq!((ids.width, ids.height), (32, 24));
+    assert_eq!((ids.rect.width, ids.rect.height), (32, 24));
     assert_eq!(ids.instance_id, frame.instance_id);
     assert_eq!(ids.class_id, frame.class_id);
     assert!(ids.instance_id.iter().any(|&id| id != 0), "some object or threshold is in view");

@@ -16,6 +16,27 @@ use super::RenderError;
 /// camera spec gives none (assumed; real lenses measure 0.8..0.95).
 pub const DEFAULT_LENS_TRANSMITTANCE: f32 = 0.9;
 
+/// A rectangle of whole pixels: columns `x0 .. x0 + width`, rows `y0 .. y0 + height`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PixelRect {
+    pub x0: u32,
+    pub y0: u32,
+    pub width: u32,
+    pub height: u32,
+}
+
+impl PixelRect {
+    /// Number of pixels.
+    #[must_use]
+    pub fn area(&self) -> usize {
+        self.width as usize * self.height as usize
+    }
+}
+
+/// Depth (metres along the optical axis) at which [`Camera::box_pixels`] clips a box: a
+/// camera ray meets nothing at or behind the pinhole's plane.
+const CLIP_DEPTH_M: f64 = 1e-9;
+
 /// A pinhole camera in the world (Z up, metres).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Camera {
@@ -99,6 +120,67 @@ impl Camera {
         let right = Vec3::new(sy, -cy, 0.0);
         let up = right.cross(forward);
         (forward, right, up)
+    }
+
+    /// The whole frame as a [`PixelRect`].
+    #[must_use]
+    pub fn full_rect(&self) -> PixelRect {
+        PixelRect { x0: 0, y0: 0, width: self.width_px, height: self.height_px }
+    }
+
+    /// A rectangle holding every pixel whose centre ray can meet the axis-aligned box
+    /// `[min, max]` (world metres), or `None` when none can: the box is clipped to the space in
+    /// front of the pinhole, its corners and clip points are projected, and their bounding
+    /// rectangle is grown by one pixel on each side for rounding. Conservative, not tight:
+    /// callers that count what rays hit inside it (ids of thresholds) get exactly the count of
+    /// the whole frame, for a fraction of the rays.
+    #[must_use]
+    pub fn box_pixels(&self, min: Vec3, max: Vec3) -> Option<PixelRect> {
+        let (forward, right, up) = self.basis();
+        let corners: [[f64; 3]; 8] = std::array::from_fn(|i| {
+            let p = Vec3::new(
+                if i & 1 == 0 { min.x } else { max.x },
+                if i & 2 == 0 { min.y } else { max.y },
+                if i & 4 == 0 { min.z } else { max.z },
+            );
+            let d = (p - self.position).as_dvec3();
+            [d.dot(right.as_dvec3()), d.dot(up.as_dvec3()), d.dot(forward.as_dvec3())]
+        });
+        // The clipped box is the convex hull of its corners in front and of the points where
+        // its 12 edges cross the clip plane; their projections bound its image.
+        let mut points: Vec<[f64; 3]> = corners.iter().copied().filter(|c| c[2] >= CLIP_DEPTH_M).collect();
+        for a in 0..8 {
+            for bit in [1, 2, 4] {
+                let b = a | bit;
+                let (ca, cb) = (corners[a], corners[b]);
+                if b != a && (ca[2] < CLIP_DEPTH_M) != (cb[2] < CLIP_DEPTH_M) {
+                    let f = (CLIP_DEPTH_M - ca[2]) / (cb[2] - ca[2]);
+                    points.push(std::array::from_fn(|k| ca[k] + f * (cb[k] - ca[k])));
+                }
+            }
+        }
+        if points.is_empty() {
+            return None;
+        }
+        let px_per_m_at_unit_depth = f64::from(self.focal_mm) / (f64::from(self.pixel_pitch_um) * 1e-3);
+        let (w, h) = (f64::from(self.width_px), f64::from(self.height_px));
+        let (mut u0, mut u1, mut v0, mut v1) = (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
+        for [x, y, z] in points {
+            let u = w * 0.5 + x / z * px_per_m_at_unit_depth;
+            let v = h * 0.5 - y / z * px_per_m_at_unit_depth;
+            (u0, u1, v0, v1) = (u0.min(u), u1.max(u), v0.min(v), v1.max(v));
+        }
+        // Pixel i's centre is i + 0.5: columns floor(u0 - 1) ..= ceil(u1 + 1), clamped.
+        let x0 = (u0 - 1.0).floor().clamp(0.0, w);
+        let x1 = (u1 + 1.0).ceil().clamp(0.0, w);
+        let y0 = (v0 - 1.0).floor().clamp(0.0, h);
+        let y1 = (v1 + 1.0).ceil().clamp(0.0, h);
+        (x1 > x0 && y1 > y0).then_some(PixelRect {
+            x0: x0 as u32,
+            y0: y0 as u32,
+            width: (x1 - x0) as u32,
+            height: (y1 - y0) as u32,
+        })
     }
 
     /// Unit world direction of the ray through continuous pixel coordinates `(px, py)`.
@@ -195,6 +277,72 @@ mod tests {
         assert!(c.relative_illumination(0.0, 0.0) < 0.9);
         assert!(Camera { pitch_deg: 95.0, ..c }.validate().is_err());
         assert!(c.validate().is_ok());
+    }
+
+    /// Whether the ray from `origin` along `dir` meets the box `[min, max]` (slab test, f64).
+    fn ray_meets_box(origin: Vec3, dir: Vec3, min: Vec3, max: Vec3) -> bool {
+        let (o, d) = (origin.as_dvec3(), dir.as_dvec3());
+        let (mut t0, mut t1) = (0.0f64, f64::INFINITY);
+        for k in 0..3 {
+            let (lo, hi) = (f64::from(min[k]), f64::from(max[k]));
+            if d[k] == 0.0 {
+                if o[k] < lo || o[k] > hi {
+                    return false;
+                }
+                continue;
+            }
+            let (a, b) = ((lo - o[k]) / d[k], (hi - o[k]) / d[k]);
+            t0 = t0.max(a.min(b));
+            t1 = t1.min(a.max(b));
+        }
+        t0 <= t1
+    }
+
+    #[test]
+    fn box_pixels_in_front_behind_and_across_the_pinhole() {
+        let c = camera(); // at (0, 0, 1) looking along +Y
+        // A 0.2 m box 2 m ahead, on the axis: around the image centre.
+        let r = c.box_pixels(Vec3::new(-0.1, 1.9, 0.9), Vec3::new(0.1, 2.1, 1.1)).unwrap();
+        assert!(r.x0 < 320 && r.x0 + r.width > 320 && r.y0 < 240 && r.y0 + r.height > 240, "{r:?}");
+        assert!(r.width < 200 && r.height < 200, "{r:?}");
+        // Behind the camera: no pixel.
+        assert_eq!(c.box_pixels(Vec3::new(-0.1, -2.1, 0.9), Vec3::new(0.1, -1.9, 1.1)), None);
+        // Far to the side, out of the field of view: no pixel.
+        assert_eq!(c.box_pixels(Vec3::new(10.0, 0.9, 0.9), Vec3::new(10.2, 1.1, 1.1)), None);
+        // A wide floor strip from behind the camera to 10 m ahead (the floor is in view from
+        // 3.3 m): the bottom rows, full width.
+        let r = c.box_pixels(Vec3::new(-50.0, -1.0, 0.0), Vec3::new(50.0, 10.0, 0.02)).unwrap();
+        assert_eq!((r.x0, r.width, r.y0 + r.height), (0, 640, 480), "{r:?}");
+        assert!(r.y0 > 240, "{r:?}");
+    }
+
+    proptest::proptest! {
+        /// Every pixel whose centre ray meets a box lies in the box's `box_pixels`, for boxes in
+        /// front, behind, around and across the camera, at any pose.
+        #[test]
+        fn box_pixels_hold_every_pixel_whose_ray_meets_the_box(
+            centre in proptest::array::uniform3(-4.0f32..4.0),
+            size in proptest::array::uniform3(0.001f32..3.0),
+            yaw_deg in -180.0f32..180.0,
+            pitch_deg in -80.0f32..80.0,
+            focal_mm in 1.0f32..12.0,
+        ) {
+            let c = Camera { width_px: 40, height_px: 30, pixel_pitch_um: 60.0, focal_mm, yaw_deg, pitch_deg, ..camera() };
+            let (min, max) = (Vec3::from(centre), Vec3::from(centre) + Vec3::from(size));
+            let rect = c.box_pixels(min, max);
+            for y in 0..c.height_px {
+                for x in 0..c.width_px {
+                    let dir = c.ray_direction(x as f32 + 0.5, y as f32 + 0.5);
+                    if ray_meets_box(c.position, dir, min, max) {
+                        let r = rect.unwrap_or_else(|| panic!("pixel ({x}, {y}) meets the box, no rect"));
+                        proptest::prop_assert!(
+                            x >= r.x0 && x < r.x0 + r.width && y >= r.y0 && y < r.y0 + r.height,
+                            "pixel ({}, {}) outside {:?}", x, y, r
+                        );
+                    }
+                }
+            }
+        }
     }
 
     #[test]

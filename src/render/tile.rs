@@ -21,7 +21,7 @@ use super::lights::Blockers;
 use super::packet::{PACKET_RAYS, RayPacket};
 use super::shade::{Primary, SurfaceHit, Tracer};
 use super::{
-    AnchorGrid, Camera, Frame, GroupRgb, Guide, IdFrame, PIXEL_STREAM, PixelOut, Renderer, Sampler, Strata,
+    AnchorGrid, Camera, Frame, GroupRgb, Guide, IdFrame, PIXEL_STREAM, PixelOut, PixelRect, Renderer, Sampler, Strata,
     finite_radiance,
 };
 use crate::render::accel::Hit;
@@ -53,6 +53,8 @@ pub(super) enum Job<'g> {
 pub(super) enum Cells {
     /// Cell `(x, y)` is pixel `(x, y)`.
     Pixels,
+    /// Cell `(x, y)` is pixel `(x0 + x, y0 + y)`: a window of the frame.
+    Window { x0: u32, y0: u32 },
     /// Cell `(i, j)` is the anchor at pixel `(i stride, j stride)`, clamped to the last pixel of
     /// a `width x height` frame ([`AnchorGrid`]'s layout).
     Anchors { stride: u32, width: u32, height: u32 },
@@ -64,6 +66,7 @@ impl Cells {
     pub(super) fn pixel(self, cx: u32, cy: u32) -> (u32, u32) {
         match self {
             Cells::Pixels => (cx, cy),
+            Cells::Window { x0, y0 } => (x0 + cx, y0 + cy),
             Cells::Anchors { stride, width, height } => ((cx * stride).min(width - 1), (cy * stride).min(height - 1)),
         }
     }
@@ -122,15 +125,14 @@ impl BandSink for IdBand<'_> {
 }
 
 impl IdFrame {
-    /// A `w x h` frame of zeroed ids, for [`Renderer::trace_grid`] to fill.
-    pub(super) fn blank(w: u32, h: u32) -> IdFrame {
-        let n = w as usize * h as usize;
-        IdFrame { width: w, height: h, instance_id: vec![0; n], class_id: vec![0; n] }
+    /// Zeroed ids over `rect`, for [`Renderer::trace_grid`] to fill.
+    pub(super) fn blank(rect: PixelRect) -> IdFrame {
+        IdFrame { rect, instance_id: vec![0; rect.area()], class_id: vec![0; rect.area()] }
     }
 
     /// The frame's ids in bands of `TILE` rows.
     pub(super) fn bands(&mut self) -> Vec<IdBand<'_>> {
-        let len = self.width as usize * TILE as usize;
+        let len = self.rect.width as usize * TILE as usize;
         if len == 0 {
             return Vec::new();
         }
