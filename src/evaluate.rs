@@ -8,7 +8,9 @@
 //! (0.25 m later) so ORB has a genuine consecutive pair to match: anchors alone are metres apart
 //! and would give zero inliers whatever the camera. The poses in the 0.5 s window before every
 //! threshold crossing are rendered as well, for threshold visibility only (the same window test
-//! as the score, so no window pose is left out).
+//! as the score, so no window pose is left out): ids only, traced over the pixels each
+//! threshold's box can cover ([`crate::render::Camera::box_pixels`]), which counts exactly the
+//! pixels a whole frame would.
 //!
 //! ONE trace per pose serves day and night: the light groups are scaled so the mean
 //! illuminance on the 0.75 m plane is 20 lux by day and 2 lux by night, exactly as
