@@ -682,13 +682,13 @@ impl FrameSimulator<'_> {
         // The dark draw's mean is the same for every pixel without hot pixels: its Knuth limit
         // `exp(-mean)` is then computed once per row, not once per pixel.
         let dark_knuth =
-            (hot.is_none() && dark_mean > 0.0 && dark_mean < POISSON_KNUTH_MAX).then(|| (-dark_mean).exp());
-
+            (hot.is_none() && dark_mean > 0.0 && dark_mean < POISSON_INVERSION_MAX).then(|| (-dark_mean).exp());
         // The row in blocks of `ROW_BLOCK` pixels, three passes each: the arithmetic that needs
         // no random draw before (the mean electrons and PTRS's constants) and after (DN, the
         // effects, rounding) runs in loops without draws, which the compiler vectorises and the
         // CPU overlaps; only the draws themselves stay in a serial loop, in the stream's order.
         // Every value is computed by the same operations in the same order as one loop would.
+
         let mut mean_e = [0f64; ROW_BLOCK];
         let mut ptrs = [Ptrs::default(); ROW_BLOCK];
         let mut drawn_e = [0f64; ROW_BLOCK];
@@ -870,13 +870,32 @@ pub fn normal<R: Rng + ?Sized>(rng: &mut R) -> f64 {
 /// Pixels per block of [`FrameSimulator::row`]'s passes (its scratch arrays live on the stack).
 const ROW_BLOCK: usize = 64;
 
-/// Means below this are drawn by Knuth's multiplication of uniforms, the others by PTRS
-/// ([`poisson`]).
-const POISSON_KNUTH_MAX: f64 = 10.0;
+/// Means below this are drawn by inversion, the others by PTRS ([`poisson`]).
+const POISSON_INVERSION_MAX: f64 = 10.0;
+
+/// Knuth's Poisson draw for a small mean given as `limit = exp(-mean)` (so a caller drawing
+/// many times with one mean computes the exponential once): the number of uniforms whose
+/// running product stays above `limit`, less one. The dark draw of [`FrameSimulator::row`]
+/// uses it (one or two uniforms at the usual dark means, well below 1 e-).
+#[inline(always)]
+fn poisson_knuth<R: Rng + ?Sized>(rng: &mut R, limit: f64) -> f64 {
+    let mut k = 0.0;
+    let mut p = rng.random::<f64>();
+    while p > limit {
+        k += 1.0;
+        p *= rng.random::<f64>();
+    }
+    k
+}
+
+/// [`poisson_inversion`] stops here: the mass above is below 1e-24 for means under 10, and
+/// the cumulative sum, rounded, may stop short of a uniform just below 1.
+const POISSON_INVERSION_MAX_K: f64 = 60.0;
 
 /// A Poisson draw with mean `lambda` (0 for lambda <= 0).
 ///
-/// Small means: multiplication of uniforms (Knuth, TAOCP vol. 2). Means of 10 and above: the
+/// Small means: inversion of the distribution function with one uniform (L. Devroye,
+/// "Non-Uniform Random Variate Generation", Springer 1986, X.3.2). Means of 10 and above: the
 /// transformed rejection method PTRS of W. Hoermann, "The transformed rejection method for
 /// generating Poisson random variables", Insurance: Mathematics and Economics 12 (1993).
 #[inline(always)]
@@ -884,8 +903,8 @@ pub fn poisson<R: Rng + ?Sized>(rng: &mut R, lambda: f64) -> f64 {
     if lambda.is_nan() || lambda <= 0.0 {
         return 0.0;
     }
-    if lambda < POISSON_KNUTH_MAX {
-        return poisson_knuth(rng, (-lambda).exp());
+    if lambda < POISSON_INVERSION_MAX {
+        return poisson_inversion(rng, lambda);
     }
     ptrs_draw(rng, lambda, &Ptrs::new(lambda))
 }
@@ -898,8 +917,8 @@ fn poisson_with<R: Rng + ?Sized>(rng: &mut R, lambda: f64, ptrs: &Ptrs) -> f64 {
     if lambda.is_nan() || lambda <= 0.0 {
         return 0.0;
     }
-    if lambda < POISSON_KNUTH_MAX {
-        return poisson_knuth(rng, (-lambda).exp());
+    if lambda < POISSON_INVERSION_MAX {
+        return poisson_inversion(rng, lambda);
     }
     ptrs_draw(rng, lambda, ptrs)
 }
@@ -950,16 +969,20 @@ fn ptrs_draw<R: Rng + ?Sized>(rng: &mut R, lambda: f64, ptrs: &Ptrs) -> f64 {
     }
 }
 
-/// Knuth's Poisson draw for a small mean given as `limit = exp(-mean)` (so a caller drawing
-/// many times with one mean computes the exponential once): the number of uniforms whose
-/// running product stays above `limit`, less one.
+/// A Poisson draw for a small mean (below 10) by sequential inversion: the smallest `k` whose
+/// cumulative probability `P(X <= k)` reaches one uniform, the masses from `p_0 = exp(-lambda)`
+/// by `p_k = p_(k-1) lambda / k`. One uniform per draw, where multiplying uniforms until their
+/// product drops below `exp(-lambda)` (Knuth) takes `k + 1`.
 #[inline(always)]
-fn poisson_knuth<R: Rng + ?Sized>(rng: &mut R, limit: f64) -> f64 {
+fn poisson_inversion<R: Rng + ?Sized>(rng: &mut R, lambda: f64) -> f64 {
+    let u = rng.random::<f64>();
+    let mut p = (-lambda).exp();
+    let mut cdf = p;
     let mut k = 0.0;
-    let mut p = rng.random::<f64>();
-    while p > limit {
+    while u > cdf && k < POISSON_INVERSION_MAX_K {
         k += 1.0;
-        p *= rng.random::<f64>();
+        p *= lambda / k;
+        cdf += p;
     }
     k
 }
@@ -1125,9 +1148,10 @@ mod tests {
 
     #[test]
     fn poisson_matches_its_probability_mass() {
-        // PTRS region (lambda >= 10) and the switch: Pearson chi-square of the counts of every
-        // k within 4 sd (the two tails pooled) against the exact mass exp(k ln l - l - ln k!).
-        for &lambda in &[10.0f64, 37.5, 900.0] {
+        // Inversion (lambda < 10), PTRS (lambda >= 10) and the switch: Pearson chi-square of the
+        // counts of every k within 4 sd (the two tails pooled) against the exact mass
+        // exp(k ln l - l - ln k!).
+        for &lambda in &[0.3f64, 2.5, 7.7, 9.99, 10.0, 37.5, 900.0] {
             let mut rng = rng::stream(4, "test");
             let n = 200_000;
             let sd: f64 = lambda.sqrt();
@@ -1224,9 +1248,10 @@ mod tests {
     #[test]
     fn signal_plus_dark_electrons_are_poisson_of_the_summed_mean() {
         // K = 1 DN/e, no read noise, no black level, no clipping: DN = the electron count, which
-        // must follow Poisson(QE photons + dark t) exactly, on both sides of the Knuth / PTRS
-        // switch (mean 3.5 and 45.5), with the dark draw's Knuth limit computed once per row (no
-        // hot pixels) and per pixel (hot pixels adding to the dark mean).
+        // must follow Poisson(QE photons + dark t) exactly, on both sides of the inversion / PTRS
+        // switch (mean 3.5 and 45.5), with the dark draw by Knuth's method at a limit computed
+        // once per row (no hot pixels) and by `poisson` per pixel (hot pixels adding to the dark
+        // mean).
         for (photons, hot) in [(3.0f32, false), (45.0, false), (3.0, true)] {
             let model = SensorModel {
                 name: "test".into(),
