@@ -668,6 +668,7 @@ impl FrameSimulator<'_> {
         let pp = e.periodic_pattern;
         let (pre_sd, post_sd, k, full_well) = (self.pre_sd, self.post_sd, self.k, self.full_well);
         let (quantize, saturate, max) = (e.quantization.enabled, e.saturation.enabled, self.max);
+        let (exposure_s, dark_mean, black) = (self.exposure_s, self.dark_mean, self.black);
 
         let mut rng = rng::substream(self.frame_seed, "sensor/temporal", r as u64);
         let row_offset = if self.row_sd > 0.0 { self.row_sd * standard_normal(&mut rng) } else { 0.0 };
@@ -680,50 +681,98 @@ impl FrameSimulator<'_> {
         let periodic_y = if pp.enabled { pp.amplitude_dn * row_waves[1].0 } else { 0.0 };
         // The dark draw's mean is the same for every pixel without hot pixels: its Knuth limit
         // `exp(-mean)` is then computed once per row, not once per pixel.
-        let dark_knuth = (hot.is_none() && self.dark_mean > 0.0 && self.dark_mean < POISSON_KNUTH_MAX)
-            .then(|| (-self.dark_mean).exp());
-        for (c, &ph) in photons.iter().enumerate() {
-            let sens = prnu.map_or(1.0, |m| 1.0 + f64::from(m[c]));
-            let mu_e = qe * sens * f64::from(ph).max(0.0);
-            let mut electrons = poisson(&mut rng, mu_e);
-            electrons += match dark_knuth {
-                Some(limit) => poisson_knuth(&mut rng, limit),
+        let dark_knuth =
+            (hot.is_none() && dark_mean > 0.0 && dark_mean < POISSON_INVERSION_MAX).then(|| (-dark_mean).exp());
+        // The row in blocks of `ROW_BLOCK` pixels, three passes each: the arithmetic that needs
+        // no random draw before (the mean electrons and PTRS's constants) and after (DN, the
+        // effects, rounding) runs in loops without draws, which the compiler vectorises and the
+        // CPU overlaps; only the draws themselves stay in a serial loop, in the stream's order.
+        // Every value is computed by the same operations in the same order as one loop would.
+
+        let mut mean_e = [0f64; ROW_BLOCK];
+        let mut ptrs = [Ptrs::default(); ROW_BLOCK];
+        let mut drawn_e = [0f64; ROW_BLOCK];
+        let mut pre_z = [0f64; ROW_BLOCK];
+        let mut post_z = [0f64; ROW_BLOCK];
+        for (b, ph) in photons.chunks(ROW_BLOCK).enumerate() {
+            let (c0, n) = (b * ROW_BLOCK, ph.len());
+            let cols = c0..c0 + n;
+            let prnu = prnu.map(|m| &m[cols.clone()]);
+            let hot = hot.map(|m| &m[cols.clone()]);
+            let dsnu = dsnu.map(|m| &m[cols.clone()]);
+            let column = column.map(|m| &m[cols]);
+            let (mean_e, ptrs) = (&mut mean_e[..n], &mut ptrs[..n]);
+            let (drawn_e, pre_z, post_z) = (&mut drawn_e[..n], &mut pre_z[..n], &mut post_z[..n]);
+            // 1. Mean electrons and PTRS's constants (used only where the mean is >= 10).
+            match prnu {
+                Some(m) => {
+                    for ((mu, &ph), &s) in mean_e.iter_mut().zip(ph).zip(m) {
+                        *mu = qe * (1.0 + f64::from(s)) * f64::from(ph).max(0.0);
+                    }
+                }
                 None => {
-                    let h = hot.map_or(0.0, |m| f64::from(m[c]) * self.exposure_s);
-                    poisson(&mut rng, self.dark_mean + h)
-                }
-            };
-            electrons += dsnu.map_or(0.0, |m| f64::from(m[c]));
-            if pre_sd > 0.0 {
-                electrons += pre_sd * standard_normal(&mut rng);
-            }
-            electrons = electrons.min(full_well);
-            let mut y = k * electrons;
-            if nl.enabled {
-                let q = y / max;
-                y *= 1.0 + nl.a * q * q * q;
-            }
-            if post_sd > 0.0 {
-                y += post_sd * standard_normal(&mut rng);
-            }
-            y += row_offset + self.black;
-            y += column.map_or(0.0, |m| f64::from(m[c]));
-            if pp.enabled {
-                let [(sx, cx), (sy, cy)] = self.col_waves[c];
-                if self.separable {
-                    y += periodic_y + pp.amplitude_dn * sx;
-                } else {
-                    let [(sxr, cxr), (syr, cyr)] = row_waves;
-                    y += pp.amplitude_dn * ((sx * cxr + cx * sxr) + (sy * cyr + cy * syr));
+                    for (mu, &ph) in mean_e.iter_mut().zip(ph) {
+                        // `qe * 1.0` is `qe`: the value of `qe * sens * ph` with `sens = 1`.
+                        *mu = qe * f64::from(ph).max(0.0);
+                    }
                 }
             }
-            if quantize {
-                y = round_exact(y);
+            for (t, &mu) in ptrs.iter_mut().zip(mean_e.iter()) {
+                *t = Ptrs::new(mu);
             }
-            if saturate {
-                y = y.clamp(0.0, max);
+            // 2. The draws, in the order of the stream.
+            for i in 0..n {
+                let mut electrons = poisson_with(&mut rng, mean_e[i], &ptrs[i]);
+                electrons += match dark_knuth {
+                    Some(limit) => poisson_knuth(&mut rng, limit),
+                    None => {
+                        let h = hot.map_or(0.0, |m| f64::from(m[i]) * exposure_s);
+                        poisson(&mut rng, dark_mean + h)
+                    }
+                };
+                drawn_e[i] = electrons;
+                if pre_sd > 0.0 {
+                    pre_z[i] = standard_normal(&mut rng);
+                }
+                if post_sd > 0.0 {
+                    post_z[i] = standard_normal(&mut rng);
+                }
             }
-            emit(c, y);
+            // 3. DN and the effects after the draws.
+            for i in 0..n {
+                let mut electrons = drawn_e[i];
+                electrons += dsnu.map_or(0.0, |m| f64::from(m[i]));
+                if pre_sd > 0.0 {
+                    electrons += pre_sd * pre_z[i];
+                }
+                electrons = electrons.min(full_well);
+                let mut y = k * electrons;
+                if nl.enabled {
+                    let q = y / max;
+                    y *= 1.0 + nl.a * q * q * q;
+                }
+                if post_sd > 0.0 {
+                    y += post_sd * post_z[i];
+                }
+                y += row_offset + black;
+                y += column.map_or(0.0, |m| f64::from(m[i]));
+                if pp.enabled {
+                    let [(sx, cx), (sy, cy)] = self.col_waves[c0 + i];
+                    if self.separable {
+                        y += periodic_y + pp.amplitude_dn * sx;
+                    } else {
+                        let [(sxr, cxr), (syr, cyr)] = row_waves;
+                        y += pp.amplitude_dn * ((sx * cxr + cx * sxr) + (sy * cyr + cy * syr));
+                    }
+                }
+                if quantize {
+                    y = round_exact(y);
+                }
+                if saturate {
+                    y = y.clamp(0.0, max);
+                }
+                emit(c0 + i, y);
+            }
         }
     }
 
@@ -818,13 +867,35 @@ pub fn normal<R: Rng + ?Sized>(rng: &mut R) -> f64 {
     (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
 }
 
-/// Means below this are drawn by Knuth's multiplication of uniforms, the others by PTRS
-/// ([`poisson`]).
-const POISSON_KNUTH_MAX: f64 = 10.0;
+/// Pixels per block of [`FrameSimulator::row`]'s passes (its scratch arrays live on the stack).
+const ROW_BLOCK: usize = 64;
+
+/// Means below this are drawn by inversion, the others by PTRS ([`poisson`]).
+const POISSON_INVERSION_MAX: f64 = 10.0;
+
+/// Knuth's Poisson draw for a small mean given as `limit = exp(-mean)` (so a caller drawing
+/// many times with one mean computes the exponential once): the number of uniforms whose
+/// running product stays above `limit`, less one. The dark draw of [`FrameSimulator::row`]
+/// uses it (one or two uniforms at the usual dark means, well below 1 e-).
+#[inline(always)]
+fn poisson_knuth<R: Rng + ?Sized>(rng: &mut R, limit: f64) -> f64 {
+    let mut k = 0.0;
+    let mut p = rng.random::<f64>();
+    while p > limit {
+        k += 1.0;
+        p *= rng.random::<f64>();
+    }
+    k
+}
+
+/// [`poisson_inversion`] stops here: the mass above is below 1e-24 for means under 10, and
+/// the cumulative sum, rounded, may stop short of a uniform just below 1.
+const POISSON_INVERSION_MAX_K: f64 = 60.0;
 
 /// A Poisson draw with mean `lambda` (0 for lambda <= 0).
 ///
-/// Small means: multiplication of uniforms (Knuth, TAOCP vol. 2). Means of 10 and above: the
+/// Small means: inversion of the distribution function with one uniform (L. Devroye,
+/// "Non-Uniform Random Variate Generation", Springer 1986, X.3.2). Means of 10 and above: the
 /// transformed rejection method PTRS of W. Hoermann, "The transformed rejection method for
 /// generating Poisson random variables", Insurance: Mathematics and Economics 12 (1993).
 #[inline(always)]
@@ -832,18 +903,57 @@ pub fn poisson<R: Rng + ?Sized>(rng: &mut R, lambda: f64) -> f64 {
     if lambda.is_nan() || lambda <= 0.0 {
         return 0.0;
     }
-    if lambda < POISSON_KNUTH_MAX {
-        return poisson_knuth(rng, (-lambda).exp());
+    if lambda < POISSON_INVERSION_MAX {
+        return poisson_inversion(rng, lambda);
     }
-    let slam = lambda.sqrt();
-    let b = 0.931 + 2.53 * slam;
-    let a = -0.059 + 0.02483 * b;
-    let vr = 0.9277 - 3.6224 / (b - 2.0);
+    ptrs_draw(rng, lambda, &Ptrs::new(lambda))
+}
+
+/// [`poisson`] with PTRS's constants computed beforehand (`ptrs = Ptrs::new(lambda)`; not read
+/// when `lambda` is below 10), so that a caller can compute them for many means in a loop
+/// without draws: the same draws and values as [`poisson`].
+#[inline(always)]
+fn poisson_with<R: Rng + ?Sized>(rng: &mut R, lambda: f64, ptrs: &Ptrs) -> f64 {
+    if lambda.is_nan() || lambda <= 0.0 {
+        return 0.0;
+    }
+    if lambda < POISSON_INVERSION_MAX {
+        return poisson_inversion(rng, lambda);
+    }
+    ptrs_draw(rng, lambda, ptrs)
+}
+
+/// The constants of PTRS (Hoermann 1993, see [`poisson`]) for one mean: `a`, `b`, the squeeze
+/// limit `vr`, and `2 a`. They depend on the mean alone, not on the draws.
+#[derive(Debug, Clone, Copy, Default)]
+struct Ptrs {
+    two_a: f64,
+    a: f64,
+    b: f64,
+    vr: f64,
+}
+
+impl Ptrs {
+    #[inline(always)]
+    fn new(lambda: f64) -> Ptrs {
+        let slam = lambda.sqrt();
+        let b = 0.931 + 2.53 * slam;
+        let a = -0.059 + 0.02483 * b;
+        let vr = 0.9277 - 3.6224 / (b - 2.0);
+        // Exact (a doubling), so `two_a / us` is bit for bit Hoermann's `2 a / us`.
+        Ptrs { two_a: 2.0 * a, a, b, vr }
+    }
+}
+
+/// PTRS's rejection loop for `lambda >= 10` with its constants `ptrs`.
+#[inline(always)]
+fn ptrs_draw<R: Rng + ?Sized>(rng: &mut R, lambda: f64, ptrs: &Ptrs) -> f64 {
+    let Ptrs { two_a, a, b, vr } = *ptrs;
     loop {
         let u = rng.random::<f64>() - 0.5;
         let v = rng.random::<f64>();
         let us = 0.5 - u.abs();
-        let k = floor_exact((2.0 * a / us + b) * u + lambda + 0.43);
+        let k = floor_exact((two_a / us + b) * u + lambda + 0.43);
         if us >= 0.07 && v <= vr {
             return k;
         }
@@ -859,16 +969,20 @@ pub fn poisson<R: Rng + ?Sized>(rng: &mut R, lambda: f64) -> f64 {
     }
 }
 
-/// Knuth's Poisson draw for a small mean given as `limit = exp(-mean)` (so a caller drawing
-/// many times with one mean computes the exponential once): the number of uniforms whose
-/// running product stays above `limit`, less one.
-#[inline]
-fn poisson_knuth<R: Rng + ?Sized>(rng: &mut R, limit: f64) -> f64 {
+/// A Poisson draw for a small mean (below 10) by sequential inversion: the smallest `k` whose
+/// cumulative probability `P(X <= k)` reaches one uniform, the masses from `p_0 = exp(-lambda)`
+/// by `p_k = p_(k-1) lambda / k`. One uniform per draw, where multiplying uniforms until their
+/// product drops below `exp(-lambda)` (Knuth) takes `k + 1`.
+#[inline(always)]
+fn poisson_inversion<R: Rng + ?Sized>(rng: &mut R, lambda: f64) -> f64 {
+    let u = rng.random::<f64>();
+    let mut p = (-lambda).exp();
+    let mut cdf = p;
     let mut k = 0.0;
-    let mut p = rng.random::<f64>();
-    while p > limit {
+    while u > cdf && k < POISSON_INVERSION_MAX_K {
         k += 1.0;
-        p *= rng.random::<f64>();
+        p *= lambda / k;
+        cdf += p;
     }
     k
 }
@@ -1034,9 +1148,10 @@ mod tests {
 
     #[test]
     fn poisson_matches_its_probability_mass() {
-        // PTRS region (lambda >= 10) and the switch: Pearson chi-square of the counts of every
-        // k within 4 sd (the two tails pooled) against the exact mass exp(k ln l - l - ln k!).
-        for &lambda in &[10.0f64, 37.5, 900.0] {
+        // Inversion (lambda < 10), PTRS (lambda >= 10) and the switch: Pearson chi-square of the
+        // counts of every k within 4 sd (the two tails pooled) against the exact mass
+        // exp(k ln l - l - ln k!).
+        for &lambda in &[0.3f64, 2.5, 7.7, 9.99, 10.0, 37.5, 900.0] {
             let mut rng = rng::stream(4, "test");
             let n = 200_000;
             let sd: f64 = lambda.sqrt();
@@ -1133,9 +1248,10 @@ mod tests {
     #[test]
     fn signal_plus_dark_electrons_are_poisson_of_the_summed_mean() {
         // K = 1 DN/e, no read noise, no black level, no clipping: DN = the electron count, which
-        // must follow Poisson(QE photons + dark t) exactly, on both sides of the Knuth / PTRS
-        // switch (mean 3.5 and 45.5), with the dark draw's Knuth limit computed once per row (no
-        // hot pixels) and per pixel (hot pixels adding to the dark mean).
+        // must follow Poisson(QE photons + dark t) exactly, on both sides of the inversion / PTRS
+        // switch (mean 3.5 and 45.5), with the dark draw by Knuth's method at a limit computed
+        // once per row (no hot pixels) and by `poisson` per pixel (hot pixels adding to the dark
+        // mean).
         for (photons, hot) in [(3.0f32, false), (45.0, false), (3.0, true)] {
             let model = SensorModel {
                 name: "test".into(),
