@@ -48,7 +48,8 @@ pub(super) enum Job<'g> {
 
 /// Which pixel each cell of a traced grid is: a plain `enum` with an `#[inline(always)]` method,
 /// not a closure, because a closure called from both builds of the tile loop is compiled once,
-/// out of line, for the baseline (perf showed it at 7 % of an ids-only frame).
+/// out of line, for the baseline. With the `dyn` sink and the per-tile `Vec` it replaced, that
+/// cost a third of a label frame (0.37 -> 0.25 s at 1936x1216, docs/BENCHMARKS.md).
 #[derive(Clone, Copy)]
 pub(super) enum Cells {
     /// Cell `(x, y)` is pixel `(x, y)`.
@@ -189,7 +190,7 @@ impl Frame {
 impl Renderer<'_> {
     /// Runs `job` at the pixels of a `cols x rows` grid (cell `(cx, cy)` is pixel `at.pixel(cx, cy)`),
     /// tile by tile, one band of `TILE` rows of cells per sink in `bands`, bands in parallel.
-    /// The grid is the whole frame, or the anchors of decoupled shading.
+    /// The grid is the whole frame, a window of it, or the anchors of decoupled shading.
     ///
     /// Each band runs in the build of the tile loop that the renderer's [`Dispatch`] picks
     /// ([`crate::simd`]): the AVX2 clone where the CPU has it, the same frame either way.
