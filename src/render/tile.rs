@@ -325,6 +325,7 @@ impl Renderer<'_> {
             };
             let pixel_labels = self.labels(dir, basis, hit.as_ref());
             match job {
+                // `Ids` returned above, before any surface was interpolated.
                 Job::Ids | Job::Labels => sink.put(slot, pixel_labels, None),
                 Job::Shade(grid) => {
                     let (pixel, guide) =

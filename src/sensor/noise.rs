@@ -900,13 +900,7 @@ const POISSON_INVERSION_MAX_K: f64 = 60.0;
 /// generating Poisson random variables", Insurance: Mathematics and Economics 12 (1993).
 #[inline(always)]
 pub fn poisson<R: Rng + ?Sized>(rng: &mut R, lambda: f64) -> f64 {
-    if lambda.is_nan() || lambda <= 0.0 {
-        return 0.0;
-    }
-    if lambda < POISSON_INVERSION_MAX {
-        return poisson_inversion(rng, lambda);
-    }
-    ptrs_draw(rng, lambda, &Ptrs::new(lambda))
+    poisson_with(rng, lambda, &Ptrs::new(lambda))
 }
 
 /// [`poisson`] with PTRS's constants computed beforehand (`ptrs = Ptrs::new(lambda)`; not read
