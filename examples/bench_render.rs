@@ -362,7 +362,13 @@ fn parse_args() -> BoxResult<Args> {
     while let Some(flag) = it.next() {
         let mut value = || it.next().ok_or_else(|| format!("{flag} needs a value"));
         match flag.as_str() {
-            "--case" => args.case = Some(value()?),
+            "--case" => {
+                let case = value()?;
+                if !CASES.contains(&case.as_str()) {
+                    return Err(format!("--case {case}: expected one of {}", CASES.join(", ")).into());
+                }
+                args.case = Some(case);
+            }
             "--res" => {
                 let v = value()?;
                 let (w, h) = v.split_once('x').ok_or_else(|| format!("--res {v}: expected WxH"))?;
@@ -536,12 +542,7 @@ fn run_case(setup: &Setup, args: &Args, case: &str) -> BoxResult<()> {
                 }),
             )
         }
-        _ => {
-            return Err(format!(
-                "--case {case}: expected primary, shadow, direct, pair, speckle, eval, labels, ids or decoupled"
-            )
-            .into());
-        }
+        _ => return Err(format!("--case {case}: expected one of {}", CASES.join(", ")).into()),
     };
     let b = best(&times);
     let mut out = serde_json::json!({
@@ -565,8 +566,15 @@ fn run_case(setup: &Setup, args: &Args, case: &str) -> BoxResult<()> {
     Ok(())
 }
 
+/// The workloads of `--case`, checked before the house is built.
+const CASES: [&str; 9] = ["primary", "shadow", "direct", "pair", "speckle", "eval", "labels", "ids", "decoupled"];
+
 fn main() -> BoxResult<()> {
-    let args = parse_args()?;
+    // Bad arguments: the message and exit status 2, before any work.
+    let args = parse_args().unwrap_or_else(|e| {
+        eprintln!("error: {e}");
+        std::process::exit(2)
+    });
     let start = Instant::now();
     let setup = Setup::new()?;
     let generate_s = start.elapsed().as_secs_f64();
