@@ -245,28 +245,31 @@ impl LightSet {
         // Each culled light's importance, computed once: it is needed for the group totals and
         // again for the roulette. The first `IMPORTANCE_CACHE` lights keep theirs on the stack
         // (no allocation per shading point); any further light is recomputed, to the same value.
+        // Plain loops and `if`s, not iterator chains and closures: those were compiled out of
+        // line, with baseline code, in the AVX2 build of the tile loop (`crate::simd`).
         let mut cached = [0.0f32; IMPORTANCE_CACHE];
         let mut total = [0.0f32; 2];
-        let importances = self
-            .points
-            .iter()
-            .map(|l| (l.group, point_importance(l, point, ng, ns)))
-            .chain(self.rects.iter().map(|l| (l.group, rect_importance(l, point, ns))));
-        for (i, (group, b)) in importances.enumerate() {
-            total[group] += b;
-            if let Some(slot) = cached.get_mut(i) {
-                *slot = b;
+        for (i, light) in self.points.iter().enumerate() {
+            let b = point_importance(light, point, ng, ns);
+            total[light.group] += b;
+            if i < IMPORTANCE_CACHE {
+                cached[i] = b;
             }
         }
-        let importance = |i: usize, recompute: &dyn Fn() -> f32| cached.get(i).copied().unwrap_or_else(recompute);
-        let keep = |b: f32, group: usize, sampler: &mut Sampler| roulette(b, total[group], cull, sampler);
+        for (j, light) in self.rects.iter().enumerate() {
+            let b = rect_importance(light, point, ns);
+            total[light.group] += b;
+            if self.points.len() + j < IMPORTANCE_CACHE {
+                cached[self.points.len() + j] = b;
+            }
+        }
         let n_points = self.points.len();
         let mut e = [Vec3::ZERO; 2];
         let eps = ray_epsilon(point);
         let origin = point + ng * eps;
         for (i, light) in self.points.iter().enumerate() {
-            let b = importance(i, &|| point_importance(light, point, ng, ns));
-            let Some(weight) = keep(b, light.group, sampler) else { continue };
+            let b = if i < IMPORTANCE_CACHE { cached[i] } else { point_importance(light, point, ng, ns) };
+            let Some(weight) = roulette(b, total[light.group], cull, sampler) else { continue };
             let d = light.position - point;
             let dist2 = d.length_squared();
             let dist = dist2.sqrt();
@@ -287,8 +290,9 @@ impl LightSet {
         let inv_count = 1.0 / count as f32;
         let first_rect_slot = n_points + self.directionals.len();
         for (i, light) in self.rects.iter().enumerate() {
-            let b = importance(n_points + i, &|| rect_importance(light, point, ns));
-            let Some(weight) = keep(b, light.group, sampler) else { continue };
+            let slot = n_points + i;
+            let b = if slot < IMPORTANCE_CACHE { cached[slot] } else { rect_importance(light, point, ns) };
+            let Some(weight) = roulette(b, total[light.group], cull, sampler) else { continue };
             let mut sum = Vec3::ZERO;
             for m in 0..count {
                 let (a, b) = rect_strata.point(m, sampler);
@@ -431,7 +435,12 @@ fn rect_importance(light: &RectLight, point: Vec3, ns: Vec3) -> f32 {
     if to_point.dot(light.normal) <= 0.0 {
         return 0.0;
     }
-    if light.corners.iter().all(|&c| ns.dot(c - point) <= 0.0) {
+    // A loop, not `all` with a closure (see the importance pass of `LightSet::direct`).
+    let mut all_behind = true;
+    for &c in &light.corners {
+        all_behind &= ns.dot(c - point) <= 0.0;
+    }
+    if all_behind {
         return 0.0;
     }
     let dist2 = to_point.length_squared().max(1e-12);

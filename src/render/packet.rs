@@ -116,10 +116,18 @@ impl RayPacket {
             return;
         }
         let packet = PacketBounds::new(self, self.all(), &self.tmax);
-        candidates.retain(|&i| {
+        // A loop, not `retain` with a closure, which was compiled out of line, with baseline
+        // code, in the AVX2 build of the tile loop (`crate::simd`).
+        let mut kept = 0;
+        for k in 0..candidates.len() {
+            let i = candidates[k];
             let (lo, hi) = bounds(i);
-            !packet.rejects(lo, hi)
-        });
+            if !packet.rejects(lo, hi) {
+                candidates[kept] = i;
+                kept += 1;
+            }
+        }
+        candidates.truncate(kept);
     }
 }
 
