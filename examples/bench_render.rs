@@ -28,7 +28,8 @@
 //!   its speckle (see [`speckle`]): how noisy the culling roulette leaves a one-sample frame;
 //! * `eval`: a frame with the evaluator's settings (`evaluate::eval_render_settings`);
 //! * `decoupled`: a `preview` frame (culling `--cull`, `--rect` x `--rect` rect samples) at full
-//!   shading rate and with [`ShadingRate::Decoupled`] at `--stride` (default 2), each timed
+//!   shading rate and with [`ShadingRate::Decoupled`] at `--stride` (default 2; with `--refine`,
+//!   [`ShadingRate::Adaptive`] at that fine stride), each timed
 //!   once, and the error of the decoupled frame against the full-rate one (see [`shading_error`]).
 //!
 //! Every resolution keeps the horizontal field of view of the full 1936 px sensor (the pixel
@@ -341,6 +342,7 @@ struct Args {
     cull: f32,
     rect: u32,
     stride: u32,
+    refine: bool,
     traversal: Traversal,
 }
 
@@ -356,6 +358,7 @@ fn parse_args() -> BoxResult<Args> {
         cull: 0.1,
         rect: 1,
         stride: 2,
+        refine: false,
         traversal: Traversal::Packet,
     };
     let mut it = std::env::args().skip(1);
@@ -381,6 +384,7 @@ fn parse_args() -> BoxResult<Args> {
             "--cull" => args.cull = value()?.parse()?,
             "--rect" => args.rect = value()?.parse()?,
             "--stride" => args.stride = value()?.parse()?,
+            "--refine" => args.refine = true,
             "--single" => args.traversal = Traversal::Single,
             _ => return Err(format!("unknown argument {flag}").into()),
         }
@@ -516,8 +520,12 @@ fn run_case(setup: &Setup, args: &Args, case: &str) -> BoxResult<()> {
         "decoupled" => {
             let full =
                 RenderSettings { light_cull: args.cull, rect_samples_per_axis: args.rect, ..RenderSettings::preview() };
-            let decoupled =
-                RenderSettings { shading: ShadingRate::Decoupled { stride: args.stride, min_width_px: 0 }, ..full };
+            let shading = if args.refine {
+                ShadingRate::Adaptive { stride: args.stride, min_width_px: 0 }
+            } else {
+                ShadingRate::Decoupled { stride: args.stride, min_width_px: 0 }
+            };
+            let decoupled = RenderSettings { shading, ..full };
             let run = |settings: RenderSettings| -> BoxResult<(f64, f64, Frame)> {
                 let renderer = Renderer::new(&setup.scene, settings);
                 let cpu0 = process_cpu_s();
@@ -534,7 +542,7 @@ fn run_case(setup: &Setup, args: &Args, case: &str) -> BoxResult<()> {
                 vec![dec_s],
                 0,
                 serde_json::json!({
-                    "cull": args.cull, "rect": args.rect, "stride": args.stride,
+                    "cull": args.cull, "rect": args.rect, "stride": args.stride, "refine": args.refine,
                     "full_s": full_s, "full_cpu_s": full_cpu_s, "decoupled_s": dec_s, "decoupled_cpu_s": dec_cpu_s,
                     "labels_identical": reference.depth_m == frame.depth_m && reference.instance_id == frame.instance_id,
                     "frame_fnv": frame_hash(&frame), "full_frame_fnv": frame_hash(&reference),

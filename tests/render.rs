@@ -420,6 +420,69 @@ fn decoupled_shading_never_blends_across_surfaces() {
     }
 }
 
+/// `preview` with [`ShadingRate::Adaptive`] at `stride` on frames of any width.
+fn adaptive(stride: u32) -> RenderSettings {
+    RenderSettings { shading: ShadingRate::Adaptive { stride, min_width_px: 0 }, ..RenderSettings::preview() }
+}
+
+#[test]
+fn adaptive_shading_interpolates_smooth_light_from_fewer_anchors() {
+    // The smooth point-light field of `decoupled_shading_interpolates_smooth_light_and_keeps_labels`:
+    // most fine anchors agree with their coarse neighbours within the tolerance and are
+    // interpolated, so the frame is not the decoupled one, but close to full shading.
+    let mut scene = floor_scene();
+    scene.lights.push(point_light(LightGroup::Night, Vec3::new(0.3, -0.2, 2.0), 100.0));
+    let cam = down_camera(Vec3::new(0.0, 0.0, 1.5), 61, 47);
+    let full = Renderer::new(&scene, RenderSettings::preview()).render(&cam).unwrap();
+    let decoupled = Renderer::new(&scene, decoupled(3)).render(&cam).unwrap();
+    let frame = Renderer::new(&scene, adaptive(3)).render(&cam).unwrap();
+    assert_no_nan(&frame);
+    assert_eq!((&frame.depth_m, &frame.instance_id, &frame.normal), (&full.depth_m, &full.instance_id, &full.normal));
+    let differing = frame.night_nit.iter().zip(&decoupled.night_nit).filter(|(a, b)| a != b).count();
+    assert!(differing > 500, "{differing} pixels differ from the decoupled frame: anchors were interpolated");
+    let max_rel = full
+        .night_nit
+        .iter()
+        .zip(&frame.night_nit)
+        .map(|(a, b)| ((lum(*b) - lum(*a)) / lum(*a)).abs())
+        .fold(0.0f32, f32::max);
+    // The bilinear error of the smooth field over 6 px instead of 3.
+    assert!(max_rel < 1e-2, "largest relative error {max_rel}");
+}
+
+#[test]
+fn adaptive_shading_traces_the_anchors_along_a_sun_shadow_edge() {
+    // A low sun: the box casts a shadow on the sunlit floor. The floor's irradiance is constant
+    // on either side of the edge, so wherever the coarse anchors agree the mean is exact; where
+    // the edge passes between them, the directional bits differ and the anchor is traced. Either
+    // way every pixel gets the irradiance the decoupled frame gives it (the day group is never
+    // compared, and there is no night light, so only the sun's bits decide).
+    let mut scene = floor_scene();
+    scene.lights.push(directional_light(LightGroup::Day, Vec3::new(-1.0, -0.6, -1.0).normalize(), 1000.0));
+    let m = add_material(&mut scene, "wood_0", [0.3, 0.6, 0.2], 0.0, 1.0);
+    add_mesh(
+        &mut scene,
+        box_primitive(Vec3::new(-0.4, -0.3, 0.0), Vec3::new(0.3, 0.35, 0.6), m, false),
+        Mat4::IDENTITY,
+        Semantic::Decor { room: 0 },
+    );
+    let cam = Camera { pixel_pitch_um: 20.0, ..camera(80, 60, Vec3::new(-1.2, -1.4, 1.6), 45.0, -40.0) };
+    for stride in [2, 3] {
+        let decoupled = Renderer::new(&scene, decoupled(stride)).render(&cam).unwrap();
+        let frame = Renderer::new(&scene, adaptive(stride)).render(&cam).unwrap();
+        let lit = decoupled.day_nit.iter().filter(|c| lum(**c) > 0.0).count();
+        let dark = decoupled.day_nit.iter().filter(|c| lum(**c) == 0.0).count();
+        assert!(lit > 500 && dark > 300, "stride {stride}: {lit} lit and {dark} shadowed px in view");
+        for (i, (a, b)) in decoupled.day_nit.iter().zip(&frame.day_nit).enumerate() {
+            let (a, b) = (Vec3::from(*a), Vec3::from(*b));
+            assert!(
+                (a - b).abs().max_element() <= 1e-4 * a.max_element().max(1.0),
+                "stride {stride} pixel {i}: {a} decoupled vs {b} adaptive"
+            );
+        }
+    }
+}
+
 #[test]
 fn decoupled_shading_applies_only_where_configured() {
     let scene = room_of_boxes(Vec3::new(6.0, 5.0, 2.6), 4);

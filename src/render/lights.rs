@@ -318,6 +318,24 @@ impl LightSet {
         e
     }
 
+    /// Bit `i` set where directional light `i` (the first 32) reaches `point` on a surface of
+    /// normal `n`: it faces the light and no triangle blocks the way. The sun's shadow edges
+    /// are the sharpest, noise-free feature of a day frame; [`super::refine`] compares these
+    /// bits, not the (noisy) day irradiance, to decide where anchors must be traced.
+    #[must_use]
+    pub(crate) fn directionals_reaching(&self, accel: &Accel, point: Vec3, n: Vec3, blockers: &Blockers) -> u32 {
+        let origin = point + n * ray_epsilon(point);
+        let mut mask = 0;
+        for (i, light) in self.directionals.iter().take(32).enumerate() {
+            if directional_importance(light, n, n) > 0.0
+                && !blockers.occluded(accel, self.points.len() + i, origin, light.to_light, f32::INFINITY)
+            {
+                mask |= 1 << i;
+            }
+        }
+        mask
+    }
+
     /// The first rect light emitter seen along a unit ray before `tmax`: (distance, group,
     /// radiance in nit per channel).
     #[must_use]

@@ -51,7 +51,7 @@ pub(super) enum Job<'g> {
 /// out of line, for the baseline. With the `dyn` sink and the per-tile `Vec` it replaced, that
 /// cost a third of a label frame (0.37 -> 0.25 s at 1936x1216, docs/BENCHMARKS.md).
 #[derive(Clone, Copy)]
-pub(super) enum Cells {
+pub(super) enum Cells<'a> {
     /// Cell `(x, y)` is pixel `(x, y)`.
     Pixels,
     /// Cell `(x, y)` is pixel `(x0 + x, y0 + y)`: a window of the frame.
@@ -59,9 +59,12 @@ pub(super) enum Cells {
     /// Cell `(i, j)` is the anchor at pixel `(i stride, j stride)`, clamped to the last pixel of
     /// a `width x height` frame ([`AnchorGrid`]'s layout).
     Anchors { stride: u32, width: u32, height: u32 },
+    /// Cell `(x, y)` of a grid `TILE` cells wide is pixel `pixels[y TILE + x]` (the last one
+    /// past the end): a list of scattered pixels, traced 64 to a tile.
+    Listed { pixels: &'a [(u32, u32)] },
 }
 
-impl Cells {
+impl Cells<'_> {
     /// The pixel of cell `(cx, cy)`.
     #[inline(always)]
     pub(super) fn pixel(self, cx: u32, cy: u32) -> (u32, u32) {
@@ -69,6 +72,7 @@ impl Cells {
             Cells::Pixels => (cx, cy),
             Cells::Window { x0, y0 } => (x0 + cx, y0 + cy),
             Cells::Anchors { stride, width, height } => ((cx * stride).min(width - 1), (cy * stride).min(height - 1)),
+            Cells::Listed { pixels } => pixels[((cy * TILE + cx) as usize).min(pixels.len() - 1)],
         }
     }
 }
@@ -198,7 +202,7 @@ impl Renderer<'_> {
         &self,
         camera: &Camera,
         grid: (u32, u32),
-        at: Cells,
+        at: Cells<'_>,
         job: Job<'_>,
         bands: Vec<B>,
     ) {
@@ -233,7 +237,7 @@ impl Renderer<'_> {
         &self,
         camera: &Camera,
         grid: (u32, u32),
-        at: Cells,
+        at: Cells<'_>,
         job: Job<'_>,
         band: usize,
         sink: B,
@@ -249,7 +253,7 @@ impl Renderer<'_> {
         &self,
         camera: &Camera,
         (cols, rows): (u32, u32),
-        at: Cells,
+        at: Cells<'_>,
         job: Job<'_>,
         band: usize,
         mut sink: B,
@@ -268,8 +272,9 @@ impl Renderer<'_> {
                     // The anchors of a decoupled frame are finished already.
                     if let Job::Shade(Some(grid)) = job
                         && let Some(a) = grid.index(x, y)
+                        && let Some(pixel) = grid.pixels[a]
                     {
-                        sink.put(slot, grid.pixels[a], None);
+                        sink.put(slot, pixel, None);
                         continue;
                     }
                     tile[len] = (slot, (x, y));
@@ -519,9 +524,14 @@ mod tests {
             shading: ShadingRate::Decoupled { stride: 3, min_width_px: 0 },
             ..RenderSettings::preview()
         };
+        let adaptive = RenderSettings {
+            shading: ShadingRate::Adaptive { stride: 2, min_width_px: 0 },
+            ..RenderSettings::preview()
+        };
         let cases = [
             ("preview", RenderSettings::preview()),
             ("decoupled", decoupled),
+            ("adaptive", adaptive),
             ("standard", RenderSettings { seed: 5, ..RenderSettings::standard() }),
         ];
         for (name, settings) in cases {
