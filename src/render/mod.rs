@@ -112,7 +112,7 @@ pub enum ShadingRate {
     /// [`ShadingRate::Decoupled`] with its anchors filled coarse to fine: the anchors of twice
     /// the stride are shaded first, and an anchor between them is shaded too only where they
     /// do not lie on one surface, the sun reaches some and not others, or their night
-    /// irradiance differs by more than 10 %; elsewhere it takes their mean. About a fifth less
+    /// irradiance differs by more than 10 %; elsewhere it takes their mean. About a quarter less
     /// CPU per evaluator frame than `Decoupled` at stride 3, for a coarser grain of the day
     /// frame's window-light noise (docs/BENCHMARKS.md, "Adaptive anchors"). The same
     /// conditions of use as `Decoupled`.
