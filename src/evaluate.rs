@@ -209,7 +209,9 @@ pub const EVAL_DECOUPLED_STRIDE: u32 = 3;
 /// day 0.74 / night 0.97 without the bounce, 0.69 / 0.85 with it, with the detector of that
 /// time; module docs, "Day versus night", for the figures now; 15.2 against 28.0 CPU-s), so
 /// the cheaper setting stays. Set [`EvalConfig::render`] (and `render_name`) to use others;
-/// `scene-gen evaluate --bounce-rays N` adds N bounce rays per pixel.
+/// `scene-gen evaluate --bounce-rays N` adds N bounce rays per pixel, and `--adaptive-anchors`
+/// switches to [`ShadingRate::Adaptive`] (about 10 % less CPU per candidate at 1936 px, for
+/// fewer day ORB inliers: docs/BENCHMARKS.md, "Adaptive anchors"; not the default for that).
 #[must_use]
 pub fn eval_render_settings() -> RenderSettings {
     RenderSettings {

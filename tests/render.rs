@@ -506,6 +506,11 @@ fn decoupled_shading_applies_only_where_configured() {
     assert!(a == b, "decoupled frames differ between 1 and 2 threads");
     assert!(a.day_nit != full.day_nit, "decoupled shading was not applied");
     assert_eq!(a.instance_id, full.instance_id);
+    let renderer = Renderer::new(&scene, adaptive(2));
+    let c = pool(1).install(|| renderer.render(&cam)).unwrap();
+    let d = pool(2).install(|| renderer.render(&cam)).unwrap();
+    assert!(c == d, "adaptive frames differ between 1 and 2 threads");
+    assert_eq!(c.instance_id, full.instance_id);
 }
 
 #[test]

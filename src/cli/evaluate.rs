@@ -44,7 +44,7 @@ pub struct EvaluateArgs {
     /// the render time.
     #[arg(long, default_value_t = 0)]
     pub bounce_rays: u32,
-    /// Fill the decoupled-shading anchors coarse to fine (`ShadingRate::Adaptive`): about 11 %
+    /// Fill the decoupled-shading anchors coarse to fine (`ShadingRate::Adaptive`): about 10 %
     /// less CPU per candidate at 1936 px, for a coarser grain of the window-light noise in day
     /// frames (docs/BENCHMARKS.md, "Adaptive anchors", for what it does to the scores).
     #[arg(long)]
