@@ -360,12 +360,31 @@ fn decoupled(stride: u32) -> RenderSettings {
     RenderSettings { shading: ShadingRate::Decoupled { stride, min_width_px: 0 }, ..RenderSettings::preview() }
 }
 
-#[test]
-fn decoupled_shading_interpolates_smooth_light_and_keeps_labels() {
-    // A point light over the floor: irradiance varies smoothly (cos^3 / h^2), no noise.
+/// A floor under a point light, seen from above: irradiance varies smoothly (cos^3 / h^2),
+/// with no noise.
+fn point_lit_floor() -> (Scene, Camera) {
     let mut scene = floor_scene();
     scene.lights.push(point_light(LightGroup::Night, Vec3::new(0.3, -0.2, 2.0), 100.0));
-    let cam = down_camera(Vec3::new(0.0, 0.0, 1.5), 61, 47);
+    (scene, down_camera(Vec3::new(0.0, 0.0, 1.5), 61, 47))
+}
+
+/// A box on a floor lit by a sun shining along `sun`, seen from above at an angle.
+fn sunlit_box(sun: Vec3) -> (Scene, Camera) {
+    let mut scene = floor_scene();
+    scene.lights.push(directional_light(LightGroup::Day, sun, 1000.0));
+    let m = add_material(&mut scene, "wood_0", [0.3, 0.6, 0.2], 0.0, 1.0);
+    add_mesh(
+        &mut scene,
+        box_primitive(Vec3::new(-0.4, -0.3, 0.0), Vec3::new(0.3, 0.35, 0.6), m, false),
+        Mat4::IDENTITY,
+        Semantic::Decor { room: 0 },
+    );
+    (scene, Camera { pixel_pitch_um: 20.0, ..camera(80, 60, Vec3::new(-1.2, -1.4, 1.6), 45.0, -40.0) })
+}
+
+#[test]
+fn decoupled_shading_interpolates_smooth_light_and_keeps_labels() {
+    let (scene, cam) = point_lit_floor();
     let full = Renderer::new(&scene, RenderSettings::preview()).render(&cam).unwrap();
     let frame = Renderer::new(&scene, decoupled(3)).render(&cam).unwrap();
     assert_no_nan(&frame);
@@ -395,16 +414,7 @@ fn decoupled_shading_never_blends_across_surfaces() {
     // Sun straight down on a floor and a box: the box's top and the floor get the same
     // irradiance, its sides none, its shadow hides under it. A pixel that took irradiance from
     // an anchor on another face (a side from the top or the floor) would be far off.
-    let mut scene = floor_scene();
-    scene.lights.push(directional_light(LightGroup::Day, -Vec3::Z, 1000.0));
-    let m = add_material(&mut scene, "wood_0", [0.3, 0.6, 0.2], 0.0, 1.0);
-    add_mesh(
-        &mut scene,
-        box_primitive(Vec3::new(-0.4, -0.3, 0.0), Vec3::new(0.3, 0.35, 0.6), m, false),
-        Mat4::IDENTITY,
-        Semantic::Decor { room: 0 },
-    );
-    let cam = Camera { pixel_pitch_um: 20.0, ..camera(80, 60, Vec3::new(-1.2, -1.4, 1.6), 45.0, -40.0) };
+    let (scene, cam) = sunlit_box(-Vec3::Z);
     let full = Renderer::new(&scene, RenderSettings::preview()).render(&cam).unwrap();
     for stride in [2, 4] {
         let frame = Renderer::new(&scene, decoupled(stride)).render(&cam).unwrap();
@@ -430,9 +440,7 @@ fn adaptive_shading_interpolates_smooth_light_from_fewer_anchors() {
     // The smooth point-light field of `decoupled_shading_interpolates_smooth_light_and_keeps_labels`:
     // most fine anchors agree with their coarse neighbours within the tolerance and are
     // interpolated, so the frame is not the decoupled one, but close to full shading.
-    let mut scene = floor_scene();
-    scene.lights.push(point_light(LightGroup::Night, Vec3::new(0.3, -0.2, 2.0), 100.0));
-    let cam = down_camera(Vec3::new(0.0, 0.0, 1.5), 61, 47);
+    let (scene, cam) = point_lit_floor();
     let full = Renderer::new(&scene, RenderSettings::preview()).render(&cam).unwrap();
     let decoupled = Renderer::new(&scene, decoupled(3)).render(&cam).unwrap();
     let frame = Renderer::new(&scene, adaptive(3)).render(&cam).unwrap();
@@ -457,16 +465,7 @@ fn adaptive_shading_traces_the_anchors_along_a_sun_shadow_edge() {
     // the edge passes between them, the directional bits differ and the anchor is traced. Either
     // way every pixel gets the irradiance the decoupled frame gives it (the day group is never
     // compared, and there is no night light, so only the sun's bits decide).
-    let mut scene = floor_scene();
-    scene.lights.push(directional_light(LightGroup::Day, Vec3::new(-1.0, -0.6, -1.0).normalize(), 1000.0));
-    let m = add_material(&mut scene, "wood_0", [0.3, 0.6, 0.2], 0.0, 1.0);
-    add_mesh(
-        &mut scene,
-        box_primitive(Vec3::new(-0.4, -0.3, 0.0), Vec3::new(0.3, 0.35, 0.6), m, false),
-        Mat4::IDENTITY,
-        Semantic::Decor { room: 0 },
-    );
-    let cam = Camera { pixel_pitch_um: 20.0, ..camera(80, 60, Vec3::new(-1.2, -1.4, 1.6), 45.0, -40.0) };
+    let (scene, cam) = sunlit_box(Vec3::new(-1.0, -0.6, -1.0).normalize());
     for stride in [2, 3] {
         let decoupled = Renderer::new(&scene, decoupled(stride)).render(&cam).unwrap();
         let frame = Renderer::new(&scene, adaptive(stride)).render(&cam).unwrap();
