@@ -4,14 +4,16 @@
 //!
 //! Every other anchor of every other anchor row is traced first (a grid of twice the stride).
 //! Each remaining anchor lies between two or four of those. Where they all lie on one surface
-//! (the test pixels use to borrow an anchor's irradiance) and agree on the irradiance of both
-//! light groups within [`REFINE_TOLERANCE`], the anchor takes their mean instead of being
-//! traced; anywhere else (an edge, a shadow boundary, a light's fall-off, window noise) it is
-//! traced as before. Flat, evenly lit walls and floors, most of a frame, then cost a quarter of
-//! the anchors, and the rest keeps the fine grid.
+//! (the test pixels use to borrow an anchor's irradiance), the sun reaches all or none of them,
+//! and their night irradiance agrees within [`REFINE_TOLERANCE`], the anchor takes their mean
+//! instead of being traced; anywhere else (an edge, a shadow boundary, a light's fall-off) it
+//! is traced as before. Flat, evenly lit walls and floors, most of a frame, then cost a quarter
+//! of the anchors, and the rest keeps the fine grid.
 //!
 //! What it can miss: a shadow or highlight narrower than the coarse spacing that falls between
-//! coarse anchors which agree. The frame-level error against full-rate shading is measured by
+//! coarse anchors which agree, and the soft shadows of windows, which the test does not look at
+//! ([`interpolate`] says why). Window light is then averaged over fewer samples per area: the
+//! grain of its noise grows from `stride` to `2 stride` pixels across. The frame-level error against full-rate shading is measured by
 //! `bench_render --case decoupled --refine` (docs/BENCHMARKS.md, "Adaptive anchors").
 //!
 //! The decisions are a function of the coarse anchors alone, so frames stay the same at any
@@ -25,8 +27,8 @@ use super::lights::{Blockers, luminance};
 use super::tile::{Cells, Job, TILE};
 use super::{AnchorGrid, Camera, Frame, GUIDE_MIN_COS, GUIDE_PLANE_TOLERANCE, Guide, PixelOut, RenderError, Renderer};
 
-/// Largest spread (max - min) of the neighbouring coarse anchors' irradiance luminance, per
-/// light group, as a fraction of the largest, for an anchor to take their mean. Engineering
+/// Largest spread (max - min) of the neighbouring coarse anchors' night irradiance luminance,
+/// as a fraction of the largest, for an anchor to take their mean. Engineering
 /// choice: 10 % keeps the error of an interpolated anchor well under the night sensor noise
 /// (docs/BENCHMARKS.md, "Adaptive anchors", for the figures at other values).
 pub const REFINE_TOLERANCE: f32 = 0.1;
