@@ -402,6 +402,27 @@ struct Guide {
     irradiance: GroupRgb,
 }
 
+impl Guide {
+    /// Whether this anchor lies on the surface a ray of length `ray_length_m` hit at `position`
+    /// (of `instance_id` and `material`, normal `normal`), as far as sharing its irradiance
+    /// goes: same instance and material, normals within [`GUIDE_MIN_COS`], and the anchor within
+    /// [`GUIDE_PLANE_TOLERANCE`] of the ray length from the point's tangent plane.
+    #[inline(always)]
+    fn shares_surface(
+        &self,
+        instance_id: u32,
+        material: usize,
+        position: Vec3,
+        normal: Vec3,
+        ray_length_m: f32,
+    ) -> bool {
+        self.instance_id == instance_id
+            && self.material == material
+            && self.normal.dot(normal) >= GUIDE_MIN_COS
+            && (self.position - position).dot(normal).abs() <= GUIDE_PLANE_TOLERANCE * ray_length_m
+    }
+}
+
 /// Anchors whose normal is within this cosine of a pixel's (about 18 degrees) may lend it their
 /// irradiance. Engineering choice: curved furniture with smooth normals still shares, the faces
 /// of a box (90 degrees apart) never do.
@@ -425,6 +446,13 @@ struct AnchorGrid {
 }
 
 impl AnchorGrid {
+    /// The layout of the anchors at every `stride`-th pixel of a `width x height` frame, with no
+    /// pixels or guides yet.
+    fn layout(stride: u32, width: u32, height: u32) -> AnchorGrid {
+        let (cols, rows) = (AnchorGrid::count(width, stride), AnchorGrid::count(height, stride));
+        AnchorGrid { stride, width, height, cols, rows, pixels: Vec::new(), guides: Vec::new() }
+    }
+
     /// Anchor columns (or rows) of a frame side of `n` pixels: every `stride`-th and the last.
     fn count(n: u32, stride: u32) -> u32 {
         n.saturating_sub(1).div_ceil(stride) + 1
@@ -486,11 +514,7 @@ impl AnchorGrid {
                 continue;
             }
             let Some(g) = &self.guides[cy as usize * self.cols as usize + cx as usize] else { continue };
-            if g.instance_id == instance_id
-                && g.material == surface.material
-                && g.normal.dot(n) >= GUIDE_MIN_COS
-                && (g.position - surface.position).dot(n).abs() <= GUIDE_PLANE_TOLERANCE * t
-            {
+            if g.shares_surface(instance_id, surface.material, surface.position, n, t) {
                 sum[0] += g.irradiance[0] * w;
                 sum[1] += g.irradiance[1] * w;
                 weight += w;
@@ -575,21 +599,20 @@ impl<'a> Renderer<'a> {
     fn render_decoupled(&self, camera: &Camera, stride: u32) -> Result<Frame, RenderError> {
         camera.validate()?;
         let (w, h) = (camera.width_px, camera.height_px);
-        let mut grid = AnchorGrid {
-            stride,
-            width: w,
-            height: h,
-            cols: AnchorGrid::count(w, stride),
-            rows: AnchorGrid::count(h, stride),
-            pixels: Vec::new(),
-            guides: Vec::new(),
-        };
+        let mut grid = AnchorGrid::layout(stride, w, h);
         let at = Cells::Anchors { stride, width: w, height: h };
         let anchors = self.trace_anchors(camera, (grid.cols, grid.rows), at);
         (grid.pixels, grid.guides) = anchors.into_iter().map(|(pixel, guide)| (Some(pixel), guide)).unzip();
+        Ok(self.shade_from_anchors(camera, &grid))
+    }
+
+    /// Every pixel of `camera`'s frame from its own camera ray, the finished anchors of `grid`
+    /// copied, the irradiance of the others from `grid`'s guides ([`ShadingRate::Decoupled`]).
+    fn shade_from_anchors(&self, camera: &Camera, grid: &AnchorGrid) -> Frame {
+        let (w, h) = (camera.width_px, camera.height_px);
         let mut frame = Frame::blank(w, h);
-        self.trace_grid(camera, (w, h), Cells::Pixels, Job::Shade(Some(&grid)), frame.bands());
-        Ok(frame)
+        self.trace_grid(camera, (w, h), Cells::Pixels, Job::Shade(Some(grid)), frame.bands());
+        frame
     }
 
     /// Depth, instance and class ids and normals of `camera`'s view, exactly as [`Renderer::render`]

@@ -25,7 +25,7 @@ use rayon::prelude::*;
 
 use super::lights::{Blockers, luminance};
 use super::tile::{Cells, Job, TILE};
-use super::{AnchorGrid, Camera, Frame, GUIDE_MIN_COS, GUIDE_PLANE_TOLERANCE, Guide, PixelOut, RenderError, Renderer};
+use super::{AnchorGrid, Camera, Frame, Guide, PixelOut, RenderError, Renderer};
 
 /// Largest spread (max - min) of the neighbouring coarse anchors' night irradiance luminance,
 /// as a fraction of the largest, for an anchor to take their mean. Engineering
@@ -75,12 +75,7 @@ fn interpolate(anchors: &[Anchor], cols: u32, xs: &[u32], ys: &[u32]) -> Option<
             match first {
                 None => first = Some((g, pixel.depth_m, sun)),
                 Some((f, depth_m, first_sun)) => {
-                    let same_surface = sun == first_sun
-                        && g.instance_id == f.instance_id
-                        && g.material == f.material
-                        && g.normal.dot(f.normal) >= GUIDE_MIN_COS
-                        && (g.position - f.position).dot(f.normal).abs() <= GUIDE_PLANE_TOLERANCE * depth_m;
-                    if !same_surface {
+                    if sun != first_sun || !g.shares_surface(f.instance_id, f.material, f.position, f.normal, depth_m) {
                         return None;
                     }
                 }
@@ -107,7 +102,8 @@ impl Renderer<'_> {
     pub(super) fn render_adaptive(&self, camera: &Camera, stride: u32) -> Result<Frame, RenderError> {
         camera.validate()?;
         let (w, h) = (camera.width_px, camera.height_px);
-        let (cols, rows) = (AnchorGrid::count(w, stride), AnchorGrid::count(h, stride));
+        let mut grid = AnchorGrid::layout(stride, w, h);
+        let (cols, rows) = (grid.cols, grid.rows);
         let coarse_stride = 2 * stride;
         let coarse_grid = (AnchorGrid::count(w, coarse_stride), AnchorGrid::count(h, coarse_stride));
         let coarse =
@@ -163,18 +159,16 @@ impl Renderer<'_> {
                 anchors[k] = Anchor::Traced(pixel, guide, 0);
             }
         }
-        let (pixels, guides) = anchors
+        (grid.pixels, grid.guides) = anchors
             .into_iter()
             .map(|a| match a {
                 Anchor::Traced(pixel, guide, _) => (Some(pixel), guide),
                 Anchor::Interpolated(guide) => (None, Some(guide)),
+                // Every anchor is coarse, interpolated or traced by now.
                 Anchor::Pending => (None, None),
             })
             .unzip();
-        let grid = AnchorGrid { stride, width: w, height: h, cols, rows, pixels, guides };
-        let mut frame = Frame::blank(w, h);
-        self.trace_grid(camera, (w, h), Cells::Pixels, Job::Shade(Some(&grid)), frame.bands());
-        Ok(frame)
+        Ok(self.shade_from_anchors(camera, &grid))
     }
 
     /// The cells `at` of a `cols x rows` grid shaded in full, row-major: pixels and guides.
