@@ -346,6 +346,14 @@ struct Args {
     traversal: Traversal,
 }
 
+/// `text`, the value of `flag`, as a number; the error names the flag and the value.
+fn number<T: std::str::FromStr>(flag: &str, text: &str) -> BoxResult<T>
+where
+    T::Err: std::fmt::Display,
+{
+    text.parse().map_err(|e| format!("{flag} {text}: {e}").into())
+}
+
 fn parse_args() -> BoxResult<Args> {
     let mut args = Args {
         case: None,
@@ -375,15 +383,15 @@ fn parse_args() -> BoxResult<Args> {
             "--res" => {
                 let v = value()?;
                 let (w, h) = v.split_once('x').ok_or_else(|| format!("--res {v}: expected WxH"))?;
-                (args.width, args.height) = (w.parse()?, h.parse()?);
+                (args.width, args.height) = (number(&flag, w)?, number(&flag, h)?);
             }
-            "--threads" => args.threads = value()?.parse()?,
-            "--spp" => args.spp = value()?.parse()?,
+            "--threads" => args.threads = number(&flag, &value()?)?,
+            "--spp" => args.spp = number(&flag, &value()?)?,
             "--camera-out" => args.camera_out = Some(value()?.into()),
             "--depth-out" => args.depth_out = Some(value()?.into()),
-            "--cull" => args.cull = value()?.parse()?,
-            "--rect" => args.rect = value()?.parse()?,
-            "--stride" => args.stride = value()?.parse()?,
+            "--cull" => args.cull = number(&flag, &value()?)?,
+            "--rect" => args.rect = number(&flag, &value()?)?,
+            "--stride" => args.stride = number(&flag, &value()?)?,
             "--refine" => args.refine = true,
             "--single" => args.traversal = Traversal::Single,
             _ => return Err(format!("unknown argument {flag}").into()),

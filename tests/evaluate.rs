@@ -261,7 +261,7 @@ fn json_output_has_exactly_the_documented_keys() {
         "--adaptive-anchors",
     ]);
     let a: serde_json::Value = serde_json::from_slice(&adaptive.stdout).expect("JSON");
-    assert_eq!(a["config"]["render_name"], serde_json::json!("preview+adaptive"), "the flag reaches the renderer");
+    assert_eq!(a["config"]["render_name"], serde_json::json!("preview+adaptive"), "the flag reaches the config");
     let timed =
         cli(&["--camera", "IMX172", "--seeds", "0..1", "--frames", "2", "--max-width", "64", "--json", "--timing"]);
     let t: serde_json::Value = serde_json::from_slice(&timed.stdout).expect("JSON");
