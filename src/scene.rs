@@ -379,8 +379,8 @@ pub struct Texture {
     /// sRGB-encoded RGBA8, row-major from the top row. Shared (`Arc`) with the process-wide
     /// texture cache of [`crate::textures`], so scenes do not copy pixels.
     pub rgba8: std::sync::Arc<[u8]>,
-    /// The same image encoded as PNG (RGB or RGBA).
-    pub png: std::sync::Arc<[u8]>,
+    /// The same image encoded as PNG (RGB or RGBA), on first read.
+    pub png: crate::textures::Png,
 }
 
 /// What a node is, for labels and instance buffers.

@@ -37,8 +37,70 @@ pub struct BakedTexture {
     pub height: u32,
     /// sRGB-encoded RGBA8, row-major from the top row.
     pub rgba8: Arc<[u8]>,
-    /// The same pixels as a PNG file.
-    pub png: Arc<[u8]>,
+    /// The same pixels as a PNG file, encoded when first read.
+    pub png: Png,
+}
+
+/// A texture's PNG file, encoded on first use and then shared by every clone (like
+/// [`std::sync::LazyLock`], it dereferences to the bytes). Only exporters read it: encoding
+/// every texture when it was baked cost each `evaluate` or `render` process about half a CPU
+/// second of deflate (perf, session 8) for files it never wrote.
+#[derive(Clone)]
+pub struct Png(Arc<PngCell>);
+
+struct PngCell {
+    /// The RGBA8 pixels and their size, when the bytes are still to be encoded.
+    source: Option<(Arc<[u8]>, u32, u32)>,
+    bytes: OnceLock<Vec<u8>>,
+}
+
+impl Png {
+    /// The PNG of a `width` x `height` sRGB RGBA8 image, saved as RGB (alpha is dropped: every
+    /// baked texture is opaque), encoded when first read.
+    #[must_use]
+    pub fn of_rgba8(rgba8: Arc<[u8]>, width: u32, height: u32) -> Png {
+        Png(Arc::new(PngCell { source: Some((rgba8, width, height)), bytes: OnceLock::new() }))
+    }
+}
+
+/// Bytes that already are a PNG file (or none, for a texture that is never exported).
+impl From<Vec<u8>> for Png {
+    fn from(bytes: Vec<u8>) -> Png {
+        Png(Arc::new(PngCell { source: None, bytes: OnceLock::from(bytes) }))
+    }
+}
+
+impl std::ops::Deref for Png {
+    type Target = [u8];
+
+    fn deref(&self) -> &[u8] {
+        self.0.bytes.get_or_init(|| match &self.0.source {
+            Some((rgba8, width, height)) => {
+                let rgb: Vec<u8> = rgba8.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect();
+                encode_png(&rgb, *width, *height)
+            }
+            None => Vec::new(),
+        })
+    }
+}
+
+/// Two PNGs are equal when their bytes are (which encodes both).
+impl PartialEq for Png {
+    fn eq(&self, other: &Png) -> bool {
+        Arc::ptr_eq(&self.0, &other.0) || **self == **other
+    }
+}
+
+impl Eq for Png {}
+
+/// The state, not the bytes: printing a texture should not encode it.
+impl std::fmt::Debug for Png {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self.0.bytes.get() {
+            Some(bytes) => write!(f, "Png({} bytes)", bytes.len()),
+            None => f.write_str("Png(not yet encoded)"),
+        }
+    }
 }
 
 type Cache = Mutex<HashMap<(String, u32), Arc<BakedTexture>>>;
@@ -66,24 +128,25 @@ pub fn baked(surface: &str, variant: u32) -> Option<Arc<BakedTexture>> {
 pub fn bake(surface: &str, variant: u32) -> Option<BakedTexture> {
     let variant = variant % VARIANTS;
     let rgb = pixels(surface, variant, TEXTURE_SIZE as usize)?;
-    let png = encode_png(&rgb, TEXTURE_SIZE);
     let mut rgba8 = vec![255u8; rgb.len() / 3 * 4];
     for (dst, src) in rgba8.chunks_exact_mut(4).zip(rgb.chunks_exact(3)) {
         dst[..3].copy_from_slice(src);
     }
-    Some(BakedTexture { width: TEXTURE_SIZE, height: TEXTURE_SIZE, rgba8: rgba8.into(), png: png.into() })
+    let rgba8: Arc<[u8]> = rgba8.into();
+    let png = Png::of_rgba8(Arc::clone(&rgba8), TEXTURE_SIZE, TEXTURE_SIZE);
+    Some(BakedTexture { width: TEXTURE_SIZE, height: TEXTURE_SIZE, rgba8, png })
 }
 
 /// PNG at the default deflate level with adaptive filters. A texture is baked once per process
 /// and then shared by every scene, while its bytes go into every GLB written: this halves the
 /// GLB (about 2.2 MB instead of 4.3 MB for a 15 x 15 m house) and with it the per-scene encode
 /// and write time, for about 10 ms more per texture on first use (examples/bench_generate.rs).
-fn encode_png(rgb: &[u8], size: u32) -> Vec<u8> {
+fn encode_png(rgb: &[u8], width: u32, height: u32) -> Vec<u8> {
     use image::ImageEncoder;
     use image::codecs::png::{CompressionType, FilterType, PngEncoder};
     let mut out = Vec::new();
     PngEncoder::new_with_quality(&mut out, CompressionType::Default, FilterType::Adaptive)
-        .write_image(rgb, size, size, image::ExtendedColorType::Rgb8)
+        .write_image(rgb, width, height, image::ExtendedColorType::Rgb8)
         .expect("encoding an in-memory RGB8 image of the right length cannot fail");
     out
 }
@@ -504,6 +567,22 @@ mod tests {
             assert_eq!(&t.png[1..4], b"PNG");
         }
         assert!(bake("velvet", 0).is_none());
+    }
+
+    /// The PNG is encoded on first read only, decodes to the texture's pixels, and is shared
+    /// by the cache's clones (one encoding per texture and process).
+    #[test]
+    fn png_is_encoded_on_first_read_and_holds_the_pixels() {
+        let t = bake("tile_floor", 5).unwrap();
+        assert_eq!(format!("{:?}", t.png), "Png(not yet encoded)");
+        let copy = t.png.clone();
+        let decoded = image::load_from_memory(&t.png).unwrap().to_rgb8();
+        assert_eq!(decoded.dimensions(), (TEXTURE_SIZE, TEXTURE_SIZE));
+        let rgb: Vec<u8> = t.rgba8.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect();
+        assert_eq!(decoded.into_raw(), rgb);
+        assert!(format!("{copy:?}").ends_with(" bytes)"), "a clone shares the encoding: {copy:?}");
+        assert!(std::ptr::eq(copy.as_ptr(), t.png.as_ptr()));
+        assert_eq!(&*Png::from(b"bytes".to_vec()), b"bytes");
     }
 
     #[test]
