@@ -50,13 +50,28 @@ pub fn texels(texture: &Texture) -> &[u8] {
 #[must_use]
 #[inline(always)]
 pub fn srgb_to_linear(byte: u8) -> f32 {
+    srgb_table()[byte as usize]
+}
+
+/// The table behind [`srgb_to_linear`], for callers that decode many bytes: one check of the
+/// lazy initialisation instead of one per byte.
+#[inline(always)]
+fn srgb_table() -> &'static [f32; 256] {
     static LUT: OnceLock<[f32; 256]> = OnceLock::new();
     LUT.get_or_init(|| {
         std::array::from_fn(|i| {
             let c = i as f32 / 255.0;
             if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }
         })
-    })[byte as usize]
+    })
+}
+
+/// `i.rem_euclid(n)` for `i` in `-n..2 * n`, without the integer division (a few per cent of
+/// the texture lookups of a frame). A bilinear footprint's texel indices are in `-1..=n`.
+#[inline(always)]
+fn wrap_once(i: i64, n: i64) -> i64 {
+    let i = if i < 0 { i + n } else { i };
+    if i >= n { i - n } else { i }
 }
 
 /// Bilinear sample of a texture's linear RGB at `uv` ((0, 0) = top-left, repeating every 1.0).
@@ -76,18 +91,21 @@ pub fn sample_texture(texture: &Texture, uv: Vec2) -> Vec3 {
     let y = (uv.y - uv.y.floor()) * h as f32 - 0.5;
     let (x0, y0) = (x.floor(), y.floor());
     let (fx, fy) = (x - x0, y - y0);
-    let wrap = |v: f32, n: usize| (v as i64).rem_euclid(n as i64) as usize;
-    let (xa, xb) = (wrap(x0, w), wrap(x0 + 1.0, w));
-    let (ya, yb) = (wrap(y0, h), wrap(y0 + 1.0, h));
+    // `x` is in [-0.5, w - 0.5] (the fraction above is in [0, 1]), so `x0` is in -1..w and
+    // `x0 + 1` in 0..=w: one wrap brings each into range.
+    let (i, j) = (x0 as i64, y0 as i64);
+    let (xa, xb) = (wrap_once(i, w as i64) as usize, wrap_once(i + 1, w as i64) as usize);
+    let (ya, yb) = (wrap_once(j, h as i64) as usize, wrap_once(j + 1, h as i64) as usize);
+    let lut = srgb_table();
     // A function, not a closure: a closure cannot be marked `#[inline(always)]` and was left
     // out of line, running baseline code inside the AVX2 clone of the tile loop.
     #[inline(always)]
-    fn texel(bytes: &[u8], w: usize, x: usize, y: usize) -> Vec3 {
+    fn texel(lut: &[f32; 256], bytes: &[u8], w: usize, x: usize, y: usize) -> Vec3 {
         let i = (y * w + x) * 4;
-        Vec3::new(srgb_to_linear(bytes[i]), srgb_to_linear(bytes[i + 1]), srgb_to_linear(bytes[i + 2]))
+        Vec3::new(lut[bytes[i] as usize], lut[bytes[i + 1] as usize], lut[bytes[i + 2] as usize])
     }
-    let top = texel(bytes, w, xa, ya).lerp(texel(bytes, w, xb, ya), fx);
-    let bottom = texel(bytes, w, xa, yb).lerp(texel(bytes, w, xb, yb), fx);
+    let top = texel(lut, bytes, w, xa, ya).lerp(texel(lut, bytes, w, xb, ya), fx);
+    let bottom = texel(lut, bytes, w, xa, yb).lerp(texel(lut, bytes, w, xb, yb), fx);
     top.lerp(bottom, fy)
 }
 
@@ -359,6 +377,15 @@ mod tests {
         assert_eq!(srgb_to_linear(0), 0.0);
         assert_eq!(srgb_to_linear(255), 1.0);
         assert!((srgb_to_linear(128) - 0.215_861).abs() < 1e-5);
+    }
+
+    #[test]
+    fn wrap_once_is_rem_euclid_on_its_range() {
+        for n in [1i64, 2, 3, 7, 256] {
+            for i in -n..2 * n {
+                assert_eq!(wrap_once(i, n), i.rem_euclid(n), "i {i}, n {n}");
+            }
+        }
     }
 
     #[test]
