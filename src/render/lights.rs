@@ -18,8 +18,9 @@ use glam::Vec3;
 
 use super::accel::{Accel, NO_TRIANGLE};
 use super::packet::RayPacket;
+use super::reach::{LightReach, LightSource};
 use super::{GroupRgb, Sampler, Strata, group_index};
-use crate::scene::{Light, LightKind};
+use crate::scene::{Light, LightKind, Scene};
 
 /// Luminance weights of linear sRGB primaries (ITU-R BT.709-6, item 3.2).
 pub const LUMA_BT709: Vec3 = Vec3::new(0.2126, 0.7152, 0.0722);
@@ -82,12 +83,14 @@ impl Blockers {
 }
 
 #[derive(Clone, Copy, Debug)]
-struct PointLight {
-    position: Vec3,
+pub(super) struct PointLight {
+    pub(super) position: Vec3,
     rgb_cd: Vec3,
     /// Luminous intensity, cd.
     luminous: f32,
     group: usize,
+    /// The room the scene puts it in.
+    room: Option<u32>,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -113,6 +116,8 @@ pub(crate) struct RectLight {
     /// Luminance, nit.
     pub luminous: f32,
     pub group: usize,
+    /// The room the scene puts it in.
+    pub room: Option<u32>,
     /// The four corners `center + u * s + v * r`, `s, r` in {-0.5, 0.5}, for the importance test.
     pub corners: [Vec3; 4],
     /// The box a camera ray must enter to see the emitter ([`seen_bounds`]).
@@ -141,17 +146,37 @@ impl RectLight {
 /// All usable lights of a scene; lights missing a field their kind needs are skipped.
 #[derive(Clone, Debug, Default)]
 pub struct LightSet {
-    points: Vec<PointLight>,
+    pub(super) points: Vec<PointLight>,
     directionals: Vec<DirectionalLight>,
     pub(crate) rects: Vec<RectLight>,
     /// Per group, the brightest radiance a white Lambertian surface gets from one light at a
     /// reference distance of 1 m (point: `I / pi`, directional: `E / pi`, rect: `L`); the unit
     /// of the bounce clamp. Linear in the lights, so clamping commutes with [`super::LightScale`].
     pub(crate) reference_nit: [f32; 2],
+    /// Which point and rect lights a shading point weighs, by its room ([`super::reach`]).
+    pub(super) reach: LightReach,
 }
 
 impl LightSet {
-    /// Prepares `lights`, each multiplied by `scale[group]`.
+    /// Prepares `scene`'s lights, each multiplied by `scale[group]`, with the lists of the
+    /// lights that can reach each of its rooms ([`super::reach`]): a shading point weighs and
+    /// traces only those of its room. The same light as [`LightSet::new`] in expectation, with
+    /// fewer wasted shadow rays and less roulette noise.
+    #[must_use]
+    pub fn for_scene(scene: &Scene, scale: [f32; 2]) -> LightSet {
+        let mut set = LightSet::new(&scene.lights, scale);
+        let points: Vec<LightSource> =
+            set.points.iter().map(|l| LightSource { room: l.room, footprint: vec![l.position.truncate()] }).collect();
+        let rects: Vec<LightSource> = set
+            .rects
+            .iter()
+            .map(|l| LightSource { room: l.room, footprint: l.corners.iter().map(|c| c.truncate()).collect() })
+            .collect();
+        set.reach = LightReach::of_floorplan(scene, &points, &rects);
+        set
+    }
+
+    /// Prepares `lights`, each multiplied by `scale[group]`; every point weighs every light.
     #[must_use]
     pub fn new(lights: &[Light], scale: [f32; 2]) -> LightSet {
         let mut set = LightSet::default();
@@ -165,7 +190,13 @@ impl LightSet {
             match light.kind {
                 LightKind::Point => {
                     if let Some(position) = light.position.filter(|p| p.is_finite()) {
-                        set.points.push(PointLight { position, rgb_cd: rgb, luminous: intensity, group });
+                        set.points.push(PointLight {
+                            position,
+                            rgb_cd: rgb,
+                            luminous: intensity,
+                            group,
+                            room: light.room,
+                        });
                         set.reference_nit[group] = set.reference_nit[group].max(intensity / PI);
                     }
                 }
@@ -198,6 +229,7 @@ impl LightSet {
                             rgb_nit: rgb,
                             luminous: intensity,
                             group,
+                            room: light.room,
                             corners,
                             seen_bounds: seen_bounds(center, u, v, normal),
                         });
@@ -206,7 +238,15 @@ impl LightSet {
                 }
             }
         }
+        set.reach = LightReach::everywhere(set.points.len(), set.rects.len());
         set
+    }
+
+    /// The lists of room `room` (indices of point and rect lights), if the scene's floorplan
+    /// allowed per-room lists ([`LightSet::for_scene`]).
+    #[must_use]
+    pub fn room_lights(&self, room: usize) -> Option<(&[u32], &[u32])> {
+        self.reach.room_lights(room).map(|l| (l.points.as_slice(), l.rects.as_slice()))
     }
 
     /// Direct irradiance per group (lux per channel) at `point` on a surface whose geometric
@@ -242,6 +282,10 @@ impl LightSet {
         sampler: &mut Sampler,
         blockers: &Blockers,
     ) -> GroupRgb {
+        // Only the lights that can reach the point's room ([`super::reach`]): a light left out
+        // of the list is blocked by walls wherever it is sampled, so it adds nothing but cost
+        // and, through the group totals, roulette noise.
+        let reach = self.reach.lights_at(point);
         // Each culled light's importance, computed once: it is needed for the group totals and
         // again for the roulette. The first `IMPORTANCE_CACHE` lights keep theirs on the stack
         // (no allocation per shading point); any further light is recomputed, to the same value.
@@ -249,37 +293,41 @@ impl LightSet {
         // line, with baseline code, in the AVX2 build of the tile loop (`crate::simd`).
         let mut cached = [0.0f32; IMPORTANCE_CACHE];
         let mut total = [0.0f32; 2];
-        for (i, light) in self.points.iter().enumerate() {
+        for (k, &i) in reach.points.iter().enumerate() {
+            let light = &self.points[i as usize];
             let b = point_importance(light, point, ng, ns);
             total[light.group] += b;
-            if i < IMPORTANCE_CACHE {
-                cached[i] = b;
+            if k < IMPORTANCE_CACHE {
+                cached[k] = b;
             }
         }
-        for (j, light) in self.rects.iter().enumerate() {
+        let n_points = reach.points.len();
+        for (k, &i) in reach.rects.iter().enumerate() {
+            let light = &self.rects[i as usize];
             let b = rect_importance(light, point, ns);
             total[light.group] += b;
-            if self.points.len() + j < IMPORTANCE_CACHE {
-                cached[self.points.len() + j] = b;
+            if n_points + k < IMPORTANCE_CACHE {
+                cached[n_points + k] = b;
             }
         }
-        let n_points = self.points.len();
         let mut e = [Vec3::ZERO; 2];
         let eps = ray_epsilon(point);
         let origin = point + ng * eps;
-        for (i, light) in self.points.iter().enumerate() {
-            let b = if i < IMPORTANCE_CACHE { cached[i] } else { point_importance(light, point, ng, ns) };
+        for (k, &i) in reach.points.iter().enumerate() {
+            let light = &self.points[i as usize];
+            let b = if k < IMPORTANCE_CACHE { cached[k] } else { point_importance(light, point, ng, ns) };
             let Some(weight) = roulette(b, total[light.group], cull, sampler) else { continue };
             let d = light.position - point;
             let dist2 = d.length_squared();
             let dist = dist2.sqrt();
             let dir = d / dist;
-            if !blockers.occluded(accel, i, origin, dir, dist - 2.0 * eps) {
+            if !blockers.occluded(accel, i as usize, origin, dir, dist - 2.0 * eps) {
                 e[light.group] += light.rgb_cd * (weight * ns.dot(dir) / dist2);
             }
         }
+        let all_points = self.points.len();
         for (i, light) in self.directionals.iter().enumerate() {
-            let slot = n_points + i;
+            let slot = all_points + i;
             if directional_importance(light, ng, ns) > 0.0
                 && !blockers.occluded(accel, slot, origin, light.to_light, f32::INFINITY)
             {
@@ -288,9 +336,10 @@ impl LightSet {
         }
         let count = rect_samples.max(1);
         let inv_count = 1.0 / count as f32;
-        let first_rect_slot = n_points + self.directionals.len();
-        for (i, light) in self.rects.iter().enumerate() {
-            let slot = n_points + i;
+        let first_rect_slot = all_points + self.directionals.len();
+        for (k, &i) in reach.rects.iter().enumerate() {
+            let light = &self.rects[i as usize];
+            let slot = n_points + k;
             let b = if slot < IMPORTANCE_CACHE { cached[slot] } else { rect_importance(light, point, ns) };
             let Some(weight) = roulette(b, total[light.group], cull, sampler) else { continue };
             let mut sum = Vec3::ZERO;
@@ -309,7 +358,7 @@ impl LightSet {
                 if cos_surface <= 0.0 || cos_light <= 0.0 || ng.dot(dir) <= 0.0 {
                     continue;
                 }
-                if !blockers.occluded(accel, first_rect_slot + i, origin, dir, dist - 2.0 * eps) {
+                if !blockers.occluded(accel, first_rect_slot + i as usize, origin, dir, dist - 2.0 * eps) {
                     sum += light.rgb_nit * (cos_surface * cos_light / dist2);
                 }
             }

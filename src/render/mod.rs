@@ -35,6 +35,7 @@ pub mod accel;
 pub mod camera;
 pub mod lights;
 pub mod packet;
+mod reach;
 mod refine;
 pub mod shade;
 pub mod test_util;
@@ -541,7 +542,7 @@ impl<'a> Renderer<'a> {
         Renderer {
             scene,
             accel: Accel::build(scene),
-            lights: LightSet::new(&scene.lights, [1.0, 1.0]),
+            lights: LightSet::for_scene(scene, [1.0, 1.0]),
             settings,
             dispatch: crate::simd::Dispatch::current(),
         }
