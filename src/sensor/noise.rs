@@ -13,7 +13,7 @@
 //!
 //! ```text
 //! mu_e   = QE (1 + prnu) photons                         (prnu: fixed per pixel)
-//! e      = Poisson(mu_e) + Poisson((dark + hot) t) + dsnu + N(0, sigma_pre^2)
+//! e      = Poisson(mu_e + (dark + hot) t) + dsnu + N(0, sigma_pre^2)
 //! e      = min(e, full_well)                             (saturation)
 //! y      = K g e  (g = 10^(gain_db/20))
 //! y      = y (1 + a (y / y_max)^3)                       (nonlinearity, y_max = 2^bits - 1)
@@ -679,10 +679,6 @@ impl FrameSimulator<'_> {
             (two_pi * pp.freq_y_cycles_per_px * rf).sin_cos(),
         ];
         let periodic_y = if pp.enabled { pp.amplitude_dn * row_waves[1].0 } else { 0.0 };
-        // The dark draw's mean is the same for every pixel without hot pixels: its Knuth limit
-        // `exp(-mean)` is then computed once per row, not once per pixel.
-        let dark_knuth =
-            (hot.is_none() && dark_mean > 0.0 && dark_mean < POISSON_INVERSION_MAX).then(|| (-dark_mean).exp());
         // The row in blocks of `ROW_BLOCK` pixels, three passes each: the arithmetic that needs
         // no random draw before (the mean electrons and PTRS's constants) and after (DN, the
         // effects, rounding) runs in loops without draws, which the compiler vectorises and the
@@ -703,18 +699,24 @@ impl FrameSimulator<'_> {
             let column = column.map(|m| &m[cols]);
             let (mean_e, ptrs) = (&mut mean_e[..n], &mut ptrs[..n]);
             let (drawn_e, pre_z, post_z) = (&mut drawn_e[..n], &mut pre_z[..n], &mut post_z[..n]);
-            // 1. Mean electrons and PTRS's constants (used only where the mean is >= 10).
+            // 1. Mean electrons, signal plus dark (hot pixels add to the dark mean), and PTRS's
+            // constants (used only where the mean is >= 10).
             match prnu {
                 Some(m) => {
                     for ((mu, &ph), &s) in mean_e.iter_mut().zip(ph).zip(m) {
-                        *mu = qe * (1.0 + f64::from(s)) * f64::from(ph).max(0.0);
+                        *mu = qe * (1.0 + f64::from(s)) * f64::from(ph).max(0.0) + dark_mean;
                     }
                 }
                 None => {
                     for (mu, &ph) in mean_e.iter_mut().zip(ph) {
                         // `qe * 1.0` is `qe`: the value of `qe * sens * ph` with `sens = 1`.
-                        *mu = qe * f64::from(ph).max(0.0);
+                        *mu = qe * f64::from(ph).max(0.0) + dark_mean;
                     }
+                }
+            }
+            if let Some(m) = hot {
+                for (mu, &h) in mean_e.iter_mut().zip(m) {
+                    *mu += f64::from(h) * exposure_s;
                 }
             }
             for (t, &mu) in ptrs.iter_mut().zip(mean_e.iter()) {
@@ -722,15 +724,7 @@ impl FrameSimulator<'_> {
             }
             // 2. The draws, in the order of the stream.
             for i in 0..n {
-                let mut electrons = poisson_with(&mut rng, mean_e[i], &ptrs[i]);
-                electrons += match dark_knuth {
-                    Some(limit) => poisson_knuth(&mut rng, limit),
-                    None => {
-                        let h = hot.map_or(0.0, |m| f64::from(m[i]) * exposure_s);
-                        poisson(&mut rng, dark_mean + h)
-                    }
-                };
-                drawn_e[i] = electrons;
+                drawn_e[i] = poisson_with(&mut rng, mean_e[i], &ptrs[i]);
                 if pre_sd > 0.0 {
                     pre_z[i] = standard_normal(&mut rng);
                 }
@@ -872,21 +866,6 @@ const ROW_BLOCK: usize = 64;
 
 /// Means below this are drawn by inversion, the others by PTRS ([`poisson`]).
 const POISSON_INVERSION_MAX: f64 = 10.0;
-
-/// Knuth's Poisson draw for a small mean given as `limit = exp(-mean)` (so a caller drawing
-/// many times with one mean computes the exponential once): the number of uniforms whose
-/// running product stays above `limit`, less one. The dark draw of [`FrameSimulator::row`]
-/// uses it (one or two uniforms at the usual dark means, well below 1 e-).
-#[inline(always)]
-fn poisson_knuth<R: Rng + ?Sized>(rng: &mut R, limit: f64) -> f64 {
-    let mut k = 0.0;
-    let mut p = rng.random::<f64>();
-    while p > limit {
-        k += 1.0;
-        p *= rng.random::<f64>();
-    }
-    k
-}
 
 /// [`poisson_inversion`] stops here: the mass above is below 1e-24 for means under 10, and
 /// the cumulative sum, rounded, may stop short of a uniform just below 1.
@@ -1243,9 +1222,8 @@ mod tests {
     fn signal_plus_dark_electrons_are_poisson_of_the_summed_mean() {
         // K = 1 DN/e, no read noise, no black level, no clipping: DN = the electron count, which
         // must follow Poisson(QE photons + dark t) exactly, on both sides of the inversion / PTRS
-        // switch (mean 3.5 and 45.5), with the dark draw by Knuth's method at a limit computed
-        // once per row (no hot pixels) and by `poisson` per pixel (hot pixels adding to the dark
-        // mean).
+        // switch (mean 3.5 and 45.5), signal and dark drawn as one Poisson of the summed mean,
+        // with and without hot pixels adding to the dark mean.
         for (photons, hot) in [(3.0f32, false), (45.0, false), (3.0, true)] {
             let model = SensorModel {
                 name: "test".into(),
