@@ -178,7 +178,12 @@ fn calibration_recovers_the_noise_model_that_made_the_data() {
     let dir = temp_dir("roundtrip");
     let model = known_camera();
     let c = calibrate_emva(&write_measurement(&dir, &model)).unwrap();
-    assert!(within(c.system_gain_k_dn_per_e, 0.1, 0.02), "K {}", c.system_gain_k_dn_per_e);
+    // K from a 64 x 64 set varies with the noise realisation: over 200 pattern and frame seeds
+    // (pattern 5 + 1000 s, frames from 10000 s, s < 200; a throw-away copy of this test run as
+    // `NSEEDS=200 cargo test --release --test tmp_kspread -- --nocapture`, 2026-11-24) K / 0.1
+    // had a mean of 0.9994 and a standard deviation of 0.0126, so 5.5 % is 4.4 sd (2 % was 1.6 sd:
+    // 21 of the 200 failed it). These seeds give 0.0986.
+    assert!(within(c.system_gain_k_dn_per_e, 0.1, 0.055), "K {}", c.system_gain_k_dn_per_e);
     assert!(within(c.quantum_efficiency.unwrap(), 0.5, 0.03), "QE {:?}", c.quantum_efficiency);
     // Dark pair at 1 ms: read noise 20 e- plus 1 e- of dark shot noise.
     assert!(within(c.dark_noise_e, (400.0f64 + 1.0).sqrt(), 0.05), "dark noise {}", c.dark_noise_e);

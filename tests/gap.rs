@@ -30,13 +30,25 @@ fn write_case(seed: u64, n: usize, dir: &Path) -> (testdata::HiddenCase, PathBuf
 /// two), strengths drawn at random from `testdata::random_case`'s ranges.
 ///
 /// A hit: the named effects are exactly the hidden ones and, when something is hidden, the gap
-/// shrinks by at least 80 %. Measured: 35 of 40 (87.5 %) with the ziggurat normal draws and the
-/// Bonferroni hot-pixel threshold (37 of 40 before, with Box-Muller draws and a 6-sigma
-/// threshold), with no false name on any of the 14 clean sets. The misses all name the hidden
-/// effects plus one extra: black_level (seeds 16, 19, 26: sets without a black level, whose dark
-/// frames clip at 0 DN, where the closed-form fits are approximate), nonlinearity (seed 17), and
-/// hot_pixels next to a hidden DSNU and row/column noise (seed 35, not yet investigated).
-/// We assert 34 of 40 (85 %) and exactly zero names on clean sets.
+/// shrinks by at least 80 %. These seeds give 32 of 40 (with signal and dark drawn as one
+/// Poisson; 35 before, 37 with Box-Muller draws and a 6-sigma hot-pixel threshold). The misses
+/// name the hidden effects plus one extra: black_level (seeds 16, 19, 26, 34: sets without a
+/// black level, whose dark frames clip at 0 DN, where the closed-form fits are approximate),
+/// dark_current (10, 25), illumination_falloff (32), hot_pixels (35).
+///
+/// The count varies with the noise realisation far more than from 35 to 32. Measured over 31
+/// seed sets (case seeds `100000 b + 0..40`, data seeds + 1000, `GapOptions::seed` 1288 + b,
+/// b in 0..31; b = 0 is this test; a throw-away copy of this loop, run as
+/// `GAPRATE_BASES=0..31 RAYON_NUM_THREADS=1 target/release/deps/tmp_gaprate-* --nocapture`,
+/// 2026-11-24): before the merged draw (d4968cd) mean 27.7 hits, sd 4.1, range 17-35; after
+/// (a0e57ba) mean 28.5, sd 3.1, range 22-33: the same within noise (difference 0.8, its
+/// standard error 0.9). Pooled (62 runs): mean 28.1, sd 3.65. We assert 17 of 40, 3 sd below
+/// the mean (4 sd, 13.5, would be under the 14 that naming nothing scores on the clean sets);
+/// naming nothing fails it, and a workflow exact on under 40 % of the sets (under 16 expected)
+/// fails it more often than not.
+///
+/// No name on any of the 14 clean sets holds for these seeds but not in general: 23 of the 31
+/// seed sets (on either stream) named something on 1 to 7 clean sets.
 #[test]
 fn hidden_effects_are_named_and_the_gap_shrinks() {
     let dir = temp_dir("hidden");
@@ -67,7 +79,7 @@ fn hidden_effects_are_named_and_the_gap_shrinks() {
     }
     println!("single-gain hidden-effect hit rate: {hits}/40; misses: {misses:?}");
     assert!(clean_false.is_empty(), "effects named on clean sets: {clean_false:?}");
-    assert!(hits >= 34, "hit rate {hits}/40; misses:\n{}", misses.join("\n"));
+    assert!(hits >= 17, "hit rate {hits}/40; misses:\n{}", misses.join("\n"));
 }
 
 /// The same data set and seed give the same result: the workflow is deterministic.
@@ -267,11 +279,18 @@ fn sorted(v: impl IntoIterator<Item = String>) -> Vec<String> {
 /// response). Every case has a black level (see `testdata::random_multigain_case`); 4 have
 /// nothing else, 4 hide `read_noise_split`, 4 hide it and one more effect. A hit: exactly the
 /// hidden effects named. Prints the hit rate; asserts `read_noise_split` never named where it
-/// is not hidden, found in at least 7 of the 8 cases that hide it, and at least 8 of 12 exact
-/// hits. Measured: 8 of 12 (with the ziggurat normal draws; 8 of 12 before too, with other
-/// misses): the split found in all 8; the misses name one or two extras next to the hidden
-/// effects (dark_current in 3 sets, row_column_noise, prnu; before, `dsnu` in 3 sets; not yet
-/// understood). The second gain is measured within 0.05 dB.
+/// is not hidden, found in at least 7 of the 8 cases that hide it, and at least 6 of 12 exact
+/// hits. These seeds give 7 of 12 (8 before the merged signal + dark draw): the split found in
+/// all 8; the misses name one or two extras next to the hidden effects (dark_current in 4 sets,
+/// row_column_noise in 2, nonlinearity, illumination_falloff).
+///
+/// Measured over 31 seed sets (case seeds `100000 b + 300 + 0..12`, data seeds `100000 b + 77 +
+/// 0..12`, `GapOptions::seed` 1288 + b, b in 0..31, b = 0 this test; the throw-away run of the
+/// hit-rate test above): before (d4968cd) mean 10.35 exact hits, sd 1.25, range 8-12; after
+/// (a0e57ba) mean 10.45, sd 1.50, range 7-12; pooled mean 10.4, sd 1.4. We assert 6, 3 sd below
+/// the mean (4 sd, 4.9, is barely above the 4 of naming only the black level, which every case
+/// has). The split was found in all 8 in every run; named where not hidden in 6 of the 31 seed
+/// sets, on either stream (not here). The second gain is measured within 0.05 dB.
 #[test]
 fn read_noise_split_is_named_across_gains() {
     let dir = temp_dir("multigain");
@@ -305,7 +324,7 @@ fn read_noise_split_is_named_across_gains() {
     }
     println!("two-gain hidden-effect hit rate: {hits}/12; misses: {misses:?}");
     assert!(split_found >= 7, "read_noise_split found in {split_found}/8; {misses:?}");
-    assert!(hits >= 8, "hit rate {hits}/12; misses: {misses:?}");
+    assert!(hits >= 6, "hit rate {hits}/12; misses: {misses:?}");
 }
 
 /// The fitted post-gain fraction lands near the truth (two descriptors at 0 and 12 dB).
