@@ -181,41 +181,46 @@ pub const USABLE_MAX_CLIPPED_FRACTION: f64 = 0.5;
 /// detection and ORB) at any frame count.
 pub const DEFAULT_MIN_USABLE_FRACTION: f64 = 0.5;
 
-/// Frames at least this wide are shaded with [`ShadingRate::Decoupled`] by the evaluator
+/// Frames at least this wide are shaded at anchors ([`ShadingRate::Adaptive`]) by the evaluator
 /// (1280 px: above the 320 to 640 px evaluations, which stay at full rate).
 pub const EVAL_DECOUPLED_MIN_WIDTH_PX: u32 = 1280;
 /// Anchor spacing of the evaluator's decoupled shading, pixels.
 pub const EVAL_DECOUPLED_STRIDE: u32 = 3;
+/// Visibility samples per axis of each window in the evaluator's render (nine in all).
+pub const EVAL_RECT_SAMPLES_PER_AXIS: u32 = 3;
 
 /// The evaluator's ray-tracer settings: [`RenderSettings::preview`] (one ray per pixel through
-/// its centre, no bounce, stochastic culling of weak lights, one sample per rect light), with
-/// [`ShadingRate::Decoupled`] shading (irradiance every [`EVAL_DECOUPLED_STRIDE`] pixels,
-/// interpolated over the same surface) on frames at least [`EVAL_DECOUPLED_MIN_WIDTH_PX`] wide.
+/// its centre, no bounce) with every light traced (no culling roulette) and
+/// [`EVAL_RECT_SAMPLES_PER_AXIS`]^2 visibility samples per window, and
+/// [`ShadingRate::Adaptive`] shading (irradiance at anchors every [`EVAL_DECOUPLED_STRIDE`]
+/// pixels, filled coarse to fine and interpolated over the same surface) on frames at least
+/// [`EVAL_DECOUPLED_MIN_WIDTH_PX`] wide.
 ///
-/// Why decoupled shading there: shadow rays and light selection are about 55 % of a preview
-/// frame and nearly all of it is irradiance, which varies slowly over a surface, while
-/// texture and edges, which ORB and the detector see, are still sampled at every pixel. At
-/// 1936 x 1216 it made a preview frame about 2.4x cheaper for a relative radiance error of
-/// about 1 % per pixel at night (8 x 8 blocks: 0.6 %; frame mean: 0.005 %); by day the
-/// one-sample window noise (50 % per pixel) dwarfs it. See docs/BENCHMARKS.md ("Decoupled
-/// shading") for the figures and the change in scores.
+/// Why anchors: shadow rays and light selection are most of a frame's cost and nearly all of it
+/// is irradiance, which varies slowly over a surface, while texture and edges, which ORB and
+/// the detector see, are still sampled at every pixel (docs/BENCHMARKS.md, "Decoupled shading",
+/// "Adaptive anchors").
 ///
-/// Known problems (module docs, "Day versus night"): the salt-and-pepper speckle that window-lit
-/// walls had by day came from the light-culling roulette counting the sun in the day total and is
-/// fixed there ([`crate::render::LightSet::direct`]). Without bounce light, surfaces no sun or
+/// Why nine window samples and no roulette: the render's own noise must stay well below what
+/// the features and detections respond to. Since each view draws its own random numbers
+/// ([`crate::render::Camera::view_key`]), render noise is new in every frame, as a real
+/// scene's is not, and it costs ORB inliers: on the default camera at 1936 px (seeds 0..2),
+/// one window sample and culling gave 103 day inliers per pair where 16 samples and no culling
+/// give 361; this setting gives 311 (and the night's 237 of 237) for 1.15x the CPU of the old
+/// setting, where plain decoupled shading at nine samples costs 2.1x (docs/BENCHMARKS.md,
+/// "Render noise and ORB inliers").
+///
+/// Known problems (module docs, "Day versus night"): without bounce light, surfaces no sun or
 /// window reaches directly are black by day, so narrow cameras lose usable day frames; one
-/// bounce ray (`indirect_rays: 1`) restores them at 1.8x to 1.9x the CPU time, but it does not
-/// make day AP reach night AP on the default camera (IMX174, 4 mm, -10 deg, seeds 0..2, 320 px:
-/// day 0.74 / night 0.97 without the bounce, 0.69 / 0.85 with it, with the detector of that
-/// time; module docs, "Day versus night", for the figures now; 15.2 against 28.0 CPU-s), so
-/// the cheaper setting stays. Set [`EvalConfig::render`] (and `render_name`) to use others;
-/// `scene-gen evaluate --bounce-rays N` adds N bounce rays per pixel, and `--adaptive-anchors`
-/// switches to [`ShadingRate::Adaptive`] (about 10 % less CPU per candidate at 1936 px, for
-/// fewer day ORB inliers: docs/BENCHMARKS.md, "Adaptive anchors"; not the default for that).
+/// bounce ray (`indirect_rays: 1`) restores them at about twice the CPU time. Set
+/// [`EvalConfig::render`] (and `render_name`) to use others; `scene-gen evaluate
+/// --bounce-rays N` adds N bounce rays per pixel.
 #[must_use]
 pub fn eval_render_settings() -> RenderSettings {
     RenderSettings {
-        shading: ShadingRate::Decoupled { stride: EVAL_DECOUPLED_STRIDE, min_width_px: EVAL_DECOUPLED_MIN_WIDTH_PX },
+        shading: ShadingRate::Adaptive { stride: EVAL_DECOUPLED_STRIDE, min_width_px: EVAL_DECOUPLED_MIN_WIDTH_PX },
+        rect_samples_per_axis: EVAL_RECT_SAMPLES_PER_AXIS,
+        light_cull: 0.0,
         ..RenderSettings::preview()
     }
 }
@@ -309,7 +314,7 @@ impl Default for EvalConfig {
             frames_per_scene: DEFAULT_FRAMES_PER_SCENE,
             max_width_px: Some(DEFAULT_MAX_WIDTH_PX),
             render: eval_render_settings(),
-            render_name: "preview".to_string(),
+            render_name: "eval".to_string(),
             crossing_at_contact: true,
             threshold_window_s: thresholds::DEFAULT_WINDOW_S,
             speed_m_s: DEFAULT_SPEED_M_S,

@@ -52,7 +52,9 @@ fn the_default_camera_sees_thresholds_and_one_looking_up_sees_fewer() {
 #[test]
 fn on_the_same_camera_night_scores_no_higher_than_day() {
     for camera in [DEFAULT_CAMERA, "IMX172"] {
-        let e = eval(camera, &EvalConfig { min_usable_images: Some(0), ..small() });
+        // 240 px: at 160 the default camera's day and night fitness were 1.5085 and 1.5093,
+        // tied on AP and inliers and split by the inlier ratio of 3 usable frames.
+        let e = eval(camera, &EvalConfig { min_usable_images: Some(0), max_width_px: Some(240), ..small() });
         let (day, night) = (&e.scenarios.day, &e.scenarios.night);
         assert!(day.mean_inliers > 0.0 && day.ap50 > 0.0, "{camera}: the day image is usable: {day:?}");
         // The ISP brings the night image to the day's brightness: ORB finds features at night.
@@ -68,12 +70,13 @@ fn on_the_same_camera_night_scores_no_higher_than_day() {
         // here on house 0, but 0.86 / 0.88 and 0.84 / 0.86 on house 1 (module docs of
         // scene_gen::evaluate, "Day versus night"). An assertion that holds on one house and
         // not the next proves nothing.
-        assert!(
-            night.mean_inliers < day.mean_inliers,
-            "{camera}: inliers {} vs {}",
-            night.mean_inliers,
-            day.mean_inliers
-        );
+        // Inliers are not ordered either. Since each view draws its own render noise, the
+        // few-hundred-pixel frames here have about as many night inliers as day ones, and the
+        // EMVA model's fixed pattern (DSNU, PRNU, row and column offsets), amplified by the
+        // night gain, stays on the same pixels from frame to frame, where a translating
+        // camera's fundamental matrix accepts it: IMX172 at 240 px, day / night 67 / 84
+        // inliers on 123 / 215 keypoints (83 / 86 with the affine model, which has no fixed
+        // pattern). On the evaluator's benchmark case (1936 px, houses 0 and 1) it is 311 / 237.
         // The inlier ratio is not ordered: the fewer night features are the stronger ones, and
         // on 6 anchors IMX172's ratio came out 0.339 at night against 0.320 by day.
         // Usable images are not asserted either: by day the preview render leaves more of the
@@ -93,17 +96,20 @@ fn on_the_same_camera_night_scores_no_higher_than_day() {
 fn more_noise_lowers_orb_inliers_and_detection() {
     // A 30x shorter exposure: the ISP restores the brightness, so only the SNR drops. The usable
     // floor is off so both scenarios are scored on everything.
+    // The affine noise model (temporal noise only): the EMVA model's fixed pattern, which a
+    // 30x shorter exposure raises against the signal, stays on the same pixels from frame to
+    // frame and is matched as features (day inliers 27 -> 63 with it at 160 px, on 200 -> 1226
+    // keypoints at 320 px), which is what ORB on a real camera's raw frames would do too.
     let config = EvalConfig { min_usable_images: Some(0), ..small() };
-    let clean = eval("IMX172", &config);
-    let noisy = eval("IMX172,exposure_s=0.001", &config);
+    let clean = eval("IMX172,noise=affine", &config);
+    let noisy = eval("IMX172,exposure_s=0.001,noise=affine", &config);
     let (c, n) = (&clean.scenarios.day, &noisy.scenarios.day);
     assert!(n.mean_inliers < c.mean_inliers, "inliers {} vs {}", n.mean_inliers, c.mean_inliers);
     assert!(n.inlier_ratio < c.inlier_ratio, "ratio {} vs {}", n.inlier_ratio, c.inlier_ratio);
     // Detection falls with the noise in both scenarios (before the detector was told the
     // camera's noise, day AP *rose* with it here, 0.6 -> 1.0: the image estimate was dominated
     // by the renderer's day sampling noise, not the sensor's). Day 1.00 -> 0.40 and night
-    // 0.80 -> 0.20 here; houses 1 and 2: day 0.84 -> 0.76 and 1.00 -> 0.80, night 0.86 -> 0.35
-    // and 1.00 -> 0.19.
+    // 1.00 -> 0.00 here.
     assert!(n.ap50 < c.ap50, "day AP50 {} vs {}", n.ap50, c.ap50);
     let (c, n) = (&clean.scenarios.night, &noisy.scenarios.night);
     assert!(n.ap50 < c.ap50, "night AP50 {} vs {}", n.ap50, c.ap50);
@@ -247,7 +253,7 @@ fn json_output_has_exactly_the_documented_keys() {
     for k in ["day", "night", "mean"] {
         assert!(v["fitness"][k].is_number());
     }
-    assert_eq!(v["config"]["render_name"], serde_json::json!("preview"));
+    assert_eq!(v["config"]["render_name"], serde_json::json!("eval"));
     let adaptive = cli(&[
         "--camera",
         "IMX172",
@@ -261,7 +267,8 @@ fn json_output_has_exactly_the_documented_keys() {
         "--adaptive-anchors",
     ]);
     let a: serde_json::Value = serde_json::from_slice(&adaptive.stdout).expect("JSON");
-    assert_eq!(a["config"]["render_name"], serde_json::json!("preview+adaptive"), "the flag reaches the config");
+    // The flag is the default now: accepted, and the same evaluation.
+    assert_eq!(a, v, "--adaptive-anchors changes nothing");
     let timed =
         cli(&["--camera", "IMX172", "--seeds", "0..1", "--frames", "2", "--max-width", "64", "--json", "--timing"]);
     let t: serde_json::Value = serde_json::from_slice(&timed.stdout).expect("JSON");

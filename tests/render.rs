@@ -355,6 +355,26 @@ fn frames_do_not_depend_on_thread_count() {
     assert_eq!(reseeded.instance_id, one.instance_id, "but not the labels");
 }
 
+#[test]
+fn each_view_draws_its_own_noise() {
+    // The floor beyond the partition's end, in the window's penumbra, at one window sample per
+    // pixel: noisy. A view turned by a thousandth of a degree sees the same floor (35 um at 2 m)
+    // but draws its own numbers, so its noise is new: a pattern that stayed on the same pixels
+    // from view to view would be matched by a feature tracker as if it were scene texture.
+    let scene = window_room();
+    let cam = Camera { pixel_pitch_um: 10.0, ..camera(64, 48, Vec3::new(3.5, 3.6, 2.0), 0.0, -90.0) };
+    let turned = Camera { yaw_deg: cam.yaw_deg + 1e-3, ..cam };
+    let renderer = Renderer::new(&scene, RenderSettings::preview());
+    let (a, b) = (renderer.render(&cam).unwrap(), renderer.render(&turned).unwrap());
+    let reseeded = Renderer::new(&scene, RenderSettings { seed: 1, ..RenderSettings::preview() }).render(&cam).unwrap();
+    assert!(renderer.render(&cam).unwrap() == a, "the same view renders the same bytes");
+    let differs = |x: [f32; 3], y: [f32; 3]| (lum(x) - lum(y)).abs() > 0.05 * lum(x).max(lum(y));
+    let noisy: Vec<usize> = (0..a.day_nit.len()).filter(|&i| differs(a.day_nit[i], reseeded.day_nit[i])).collect();
+    assert!(noisy.len() > 50, "{} noisy pixels in view", noisy.len());
+    let new_noise = noisy.iter().filter(|&&i| differs(a.day_nit[i], b.day_nit[i])).count();
+    assert!(new_noise * 2 > noisy.len(), "{new_noise} of {} noisy pixels changed with the view", noisy.len());
+}
+
 /// `preview` with [`ShadingRate::Decoupled`] at `stride` on frames of any width.
 fn decoupled(stride: u32) -> RenderSettings {
     RenderSettings { shading: ShadingRate::Decoupled { stride, min_width_px: 0 }, ..RenderSettings::preview() }

@@ -6,7 +6,7 @@ use clap::Args;
 use scene_gen::camera_spec::CameraSpec;
 use scene_gen::evaluate::{EvalConfig, EvalError, Evaluation, ExternalDetector, ScenarioScore, evaluate};
 use scene_gen::isp::OutputRule;
-use scene_gen::render::{RenderSettings, ShadingRate};
+use scene_gen::render::RenderSettings;
 use scene_gen::seeds::{SeedRange, SeedsError};
 
 use super::{CliError, bad_input, failure};
@@ -44,9 +44,9 @@ pub struct EvaluateArgs {
     /// the render time.
     #[arg(long, default_value_t = 0)]
     pub bounce_rays: u32,
-    /// Fill the decoupled-shading anchors coarse to fine (`ShadingRate::Adaptive`): about 10 %
-    /// less CPU per candidate at 1936 px, for a coarser grain of the window-light noise in day
-    /// frames (docs/BENCHMARKS.md, "Adaptive anchors", for what it does to the scores).
+    /// Fill the shading anchors coarse to fine (`ShadingRate::Adaptive`): the default since
+    /// the evaluator's render draws nine window samples per anchor; the flag is accepted, and
+    /// changes nothing, so older command lines still run.
     #[arg(long)]
     pub adaptive_anchors: bool,
     /// Add a `timing_s` breakdown to the output (not deterministic).
@@ -130,16 +130,10 @@ pub fn run(args: &EvaluateArgs) -> Result<(), CliError> {
         return Err(bad_input(anyhow!("--bounce-rays {}: at most {MAX_BOUNCE_RAYS}", args.bounce_rays)));
     }
     let defaults = EvalConfig::default();
-    let (mut render, mut render_name) = match args.bounce_rays {
+    let (render, render_name) = match args.bounce_rays {
         0 => (defaults.render, defaults.render_name.clone()),
         n => (RenderSettings { indirect_rays: n, ..defaults.render }, format!("{}+bounce{n}", defaults.render_name)),
     };
-    if args.adaptive_anchors
-        && let ShadingRate::Decoupled { stride, min_width_px } = render.shading
-    {
-        render.shading = ShadingRate::Adaptive { stride, min_width_px };
-        render_name.push_str("+adaptive");
-    }
     let config = EvalConfig {
         render,
         render_name,

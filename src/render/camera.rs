@@ -57,6 +57,33 @@ pub struct Camera {
 }
 
 impl Camera {
+    /// A fingerprint of everything that places this view's pixels in the scene (size,
+    /// intrinsics, pose): the renderer mixes it into every pixel's random stream
+    /// ([`super::Renderer::pixel_seed`]), so two views share no pattern of sub-pixel jitter,
+    /// light samples and roulette. Keyed by the pixel alone, that pattern stood still on the
+    /// screen while the scene moved, and a tracker matched it from frame to frame: a
+    /// translating camera's fundamental matrix is skew-symmetric, so a feature that stays at
+    /// the same pixel is always an inlier (docs/BENCHMARKS.md, "Render noise and ORB inliers").
+    #[must_use]
+    pub fn view_key(&self) -> u64 {
+        let numbers = [
+            self.pixel_pitch_um,
+            self.focal_mm,
+            self.position.x,
+            self.position.y,
+            self.position.z,
+            self.yaw_deg,
+            self.pitch_deg,
+        ];
+        let mut bytes = Vec::with_capacity(8 + 4 * numbers.len());
+        bytes.extend_from_slice(&self.width_px.to_le_bytes());
+        bytes.extend_from_slice(&self.height_px.to_le_bytes());
+        for v in numbers {
+            bytes.extend_from_slice(&v.to_bits().to_le_bytes());
+        }
+        crate::rng::fnv1a64(&bytes)
+    }
+
     /// Checks that every number is finite and in range (positive sizes, |pitch| <= 90 deg;
     /// straight down is fine because roll is fixed by the yaw alone).
     ///

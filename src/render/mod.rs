@@ -560,10 +560,29 @@ impl<'a> Renderer<'a> {
         &self.settings
     }
 
-    /// A tracer over this scene whose shadow rays keep their hints in `blockers`.
+    /// A tracer over this scene whose shadow rays keep their hints in `blockers` and whose
+    /// pixel streams start from `pixel_seed`.
     #[inline(always)]
-    fn tracer<'t>(&'t self, blockers: &'t Blockers) -> Tracer<'t> {
-        Tracer { scene: self.scene, accel: &self.accel, lights: &self.lights, settings: &self.settings, blockers }
+    fn tracer<'t>(&'t self, blockers: &'t Blockers, pixel_seed: u64) -> Tracer<'t> {
+        Tracer {
+            scene: self.scene,
+            accel: &self.accel,
+            lights: &self.lights,
+            settings: &self.settings,
+            blockers,
+            pixel_seed,
+        }
+    }
+
+    /// The seed of every pixel's random stream in `camera`'s view: the settings' seed and the
+    /// view's [`Camera::view_key`], so the same view renders the same bytes and two views
+    /// share no noise pattern.
+    #[must_use]
+    pub fn pixel_seed(&self, camera: &Camera) -> u64 {
+        let mut bytes = [0u8; 16];
+        bytes[..8].copy_from_slice(&self.settings.seed.to_le_bytes());
+        bytes[8..].copy_from_slice(&camera.view_key().to_le_bytes());
+        crate::rng::fnv1a64(&bytes)
     }
 
     /// Renders `camera`'s view; rows run in parallel on the current rayon pool, and the result
@@ -694,7 +713,7 @@ impl<'a> Renderer<'a> {
             .fold(0u64, |h, v| h.rotate_left(13) ^ crate::rng::fnv1a64(&v.to_bits().to_le_bytes()));
         let mut sampler = Sampler::new(self.settings.seed, "render/probe", key);
         let blockers = Blockers::default();
-        let tracer = self.tracer(&blockers);
+        let tracer = self.tracer(&blockers, self.settings.seed);
         let rect_samples = self.settings.probe_rect_samples_per_axis.pow(2);
         let direct = self.lights.direct(
             &self.accel,

@@ -163,6 +163,8 @@ pub(crate) struct Tracer<'a> {
     pub settings: &'a RenderSettings,
     /// Shadow-ray hints of the tile (or probe) being traced.
     pub blockers: &'a Blockers,
+    /// Seed of the pixels' random streams in this view ([`super::Renderer::pixel_seed`]).
+    pub pixel_seed: u64,
 }
 
 /// A unit vector in the hemisphere about `n`, cosine-distributed, from `(u1, u2)` in [0, 1)^2.

@@ -315,7 +315,7 @@ impl Renderer<'_> {
             return;
         }
         let blockers = Blockers::new();
-        let tracer = self.tracer(&blockers);
+        let tracer = self.tracer(&blockers, self.pixel_seed(camera));
         let mut emitters = Vec::new();
         if !matches!(job, Job::Labels) {
             self.lights.emitters_in_reach(packet, &mut emitters);
@@ -367,7 +367,7 @@ impl Renderer<'_> {
         let mut samplers: Vec<(Sampler, f32, f32)> = Vec::with_capacity(cells.len());
         for &(_, (x, y)) in cells {
             let key = u64::from(y) * u64::from(camera.width_px) + u64::from(x);
-            let mut sampler = Sampler::of_hashed(self.settings.seed, PIXEL_STREAM, key);
+            let mut sampler = Sampler::of_hashed(tracer.pixel_seed, PIXEL_STREAM, key);
             let rotation = sampler.uniform();
             let rect_rotation = sampler.uniform();
             samplers.push((sampler, rotation, rect_rotation));
@@ -432,7 +432,7 @@ impl Renderer<'_> {
             Primary::Surface(s) => s,
         };
         let key = u64::from(y) * u64::from(camera.width_px) + u64::from(x);
-        let mut sampler = Sampler::of_hashed(self.settings.seed, PIXEL_STREAM, key);
+        let mut sampler = Sampler::of_hashed(tracer.pixel_seed, PIXEL_STREAM, key);
         let mut strata = None;
         // `match`es, not `then` / `unwrap_or_else` closures: a closure called from both builds
         // of the tile loop was compiled once, out of line, with baseline code (perf showed a

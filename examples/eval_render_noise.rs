@@ -1,0 +1,47 @@
+//! How much the evaluator's render noise moves its scores: the default camera (IMX174, 4 mm,
+//! -10 deg) on houses 0 and 1, 25 frames each at 1936 px, under one render setting.
+//!
+//! ```text
+//! cargo run --release --example eval_render_noise -- eval        # the evaluator's setting
+//! cargo run --release --example eval_render_noise -- one-sample  # the setting before it
+//! cargo run --release --example eval_render_noise -- converged   # 16 window samples, no culling
+//! ```
+//!
+//! Prints one JSON line: the setting and the per-scenario scores (time it with
+//! `/usr/bin/time`).
+//! docs/BENCHMARKS.md, "Render noise and ORB inliers", has the figures.
+
+use scene_gen::camera_spec::CameraSpec;
+use scene_gen::evaluate::{
+    EVAL_DECOUPLED_MIN_WIDTH_PX, EVAL_DECOUPLED_STRIDE, EvalConfig, eval_render_settings, evaluate,
+};
+use scene_gen::render::{RenderSettings, ShadingRate};
+
+type BoxResult<T> = Result<T, Box<dyn std::error::Error>>;
+
+fn main() -> BoxResult<()> {
+    let setting = std::env::args().nth(1).unwrap_or_else(|| "eval".to_string());
+    let decoupled = ShadingRate::Decoupled { stride: EVAL_DECOUPLED_STRIDE, min_width_px: EVAL_DECOUPLED_MIN_WIDTH_PX };
+    let render = match setting.as_str() {
+        "eval" => eval_render_settings(),
+        "one-sample" => RenderSettings { shading: decoupled, ..RenderSettings::preview() },
+        "converged" => RenderSettings {
+            shading: decoupled,
+            light_cull: 0.0,
+            rect_samples_per_axis: 4,
+            ..RenderSettings::preview()
+        },
+        other => return Err(format!("setting '{other}': expected eval, one-sample or converged").into()),
+    };
+    let spec = CameraSpec::from_arg("IMX174,focal_mm=4,pitch_deg=-10")?;
+    let config = EvalConfig {
+        frames_per_scene: 25,
+        max_width_px: Some(1936),
+        render,
+        render_name: setting.clone(),
+        ..EvalConfig::default()
+    };
+    let e = evaluate(&spec, &[0, 1], &config)?;
+    println!("{}", serde_json::json!({ "setting": setting, "scenarios": e.scenarios }));
+    Ok(())
+}
