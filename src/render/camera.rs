@@ -75,11 +75,12 @@ impl Camera {
             self.yaw_deg,
             self.pitch_deg,
         ];
-        let mut bytes = Vec::with_capacity(8 + 4 * numbers.len());
-        bytes.extend_from_slice(&self.width_px.to_le_bytes());
-        bytes.extend_from_slice(&self.height_px.to_le_bytes());
-        for v in numbers {
-            bytes.extend_from_slice(&v.to_bits().to_le_bytes());
+        // On the stack: the renderer asks once per tile.
+        let mut bytes = [0u8; 8 + 4 * 7];
+        bytes[..4].copy_from_slice(&self.width_px.to_le_bytes());
+        bytes[4..8].copy_from_slice(&self.height_px.to_le_bytes());
+        for (chunk, v) in bytes[8..].chunks_exact_mut(4).zip(numbers) {
+            chunk.copy_from_slice(&v.to_bits().to_le_bytes());
         }
         crate::rng::fnv1a64(&bytes)
     }
