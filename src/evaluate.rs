@@ -181,9 +181,13 @@ pub const USABLE_MAX_CLIPPED_FRACTION: f64 = 0.5;
 /// detection and ORB) at any frame count.
 pub const DEFAULT_MIN_USABLE_FRACTION: f64 = 0.5;
 
-/// Frames at least this wide are shaded at anchors ([`ShadingRate::Adaptive`]) by the evaluator
-/// (1280 px: above the 320 to 640 px evaluations, which stay at full rate).
-pub const EVAL_DECOUPLED_MIN_WIDTH_PX: u32 = 1280;
+/// Frames at least this wide are shaded at anchors ([`ShadingRate::Adaptive`]) by the evaluator:
+/// all of them. With nine window samples, full-rate shading made a 320 px candidate 8x
+/// dearer than anchors (24 against 3.0 user-s on the default camera, houses 0 and 1) for day /
+/// night inliers of 147 / 132 against 123 / 125 and the same AP; at 1936 px anchors leave
+/// 307 / 235 where a converged render gives 361 / 237, the same shortfall by day
+/// (docs/BENCHMARKS.md, "Render noise and ORB inliers").
+pub const EVAL_DECOUPLED_MIN_WIDTH_PX: u32 = 0;
 /// Anchor spacing of the evaluator's decoupled shading, pixels.
 pub const EVAL_DECOUPLED_STRIDE: u32 = 3;
 /// Visibility samples per axis of each window in the evaluator's render (nine in all).
@@ -193,8 +197,8 @@ pub const EVAL_RECT_SAMPLES_PER_AXIS: u32 = 3;
 /// its centre, no bounce) with every light traced (no culling roulette) and
 /// [`EVAL_RECT_SAMPLES_PER_AXIS`]^2 visibility samples per window, and
 /// [`ShadingRate::Adaptive`] shading (irradiance at anchors every [`EVAL_DECOUPLED_STRIDE`]
-/// pixels, filled coarse to fine and interpolated over the same surface) on frames at least
-/// [`EVAL_DECOUPLED_MIN_WIDTH_PX`] wide.
+/// pixels, filled coarse to fine and interpolated over the same surface) on frames of any width
+/// ([`EVAL_DECOUPLED_MIN_WIDTH_PX`]).
 ///
 /// Why anchors: shadow rays and light selection are most of a frame's cost and nearly all of it
 /// is irradiance, which varies slowly over a surface, while texture and edges, which ORB and
@@ -206,9 +210,10 @@ pub const EVAL_RECT_SAMPLES_PER_AXIS: u32 = 3;
 /// ([`crate::render::Camera::view_key`]), render noise is new in every frame, as a real
 /// scene's is not, and it costs ORB inliers: on the default camera at 1936 px (seeds 0..2),
 /// one window sample and culling gave 103 day inliers per pair where 16 samples and no culling
-/// give 361; this setting gives 311 (and the night's 237 of 237) for 1.15x the CPU of the old
-/// setting, where plain decoupled shading at nine samples costs 2.1x (docs/BENCHMARKS.md,
-/// "Render noise and ORB inliers").
+/// give 361; this setting gives 307 (and the night 235 of 237) for 1.15x the CPU of the old
+/// setting, where plain decoupled shading at nine samples costs 2.1x; at 320 px, where the old
+/// setting shaded every pixel, it costs half the CPU of that (docs/BENCHMARKS.md, "Render
+/// noise and ORB inliers").
 ///
 /// Known problems (module docs, "Day versus night"): without bounce light, surfaces no sun or
 /// window reaches directly are black by day, so narrow cameras lose usable day frames; one
