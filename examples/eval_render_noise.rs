@@ -5,6 +5,7 @@
 //! cargo run --release --example eval_render_noise -- eval        # the evaluator's setting
 //! cargo run --release --example eval_render_noise -- one-sample  # the setting before it
 //! cargo run --release --example eval_render_noise -- converged   # 16 window samples, no culling
+//! cargo run --release --example eval_render_noise -- all-lights-4  # (or -1, -9) N samples, no culling
 //! ```
 //!
 //! Prints one JSON line: the setting and the per-scenario scores (time it with
@@ -25,13 +26,28 @@ fn main() -> BoxResult<()> {
     let render = match setting.as_str() {
         "eval" => eval_render_settings(),
         "one-sample" => RenderSettings { shading: decoupled, ..RenderSettings::preview() },
-        "converged" => RenderSettings {
-            shading: decoupled,
-            light_cull: 0.0,
-            rect_samples_per_axis: 4,
-            ..RenderSettings::preview()
-        },
-        other => return Err(format!("setting '{other}': expected eval, one-sample or converged").into()),
+        // Every light traced, 1 to 16 window samples per anchor.
+        "all-lights-1" | "all-lights-4" | "all-lights-9" | "converged" => {
+            let per_axis = match setting.as_str() {
+                "all-lights-1" => 1,
+                "all-lights-4" => 2,
+                "all-lights-9" => 3,
+                _ => 4,
+            };
+            RenderSettings {
+                shading: decoupled,
+                light_cull: 0.0,
+                rect_samples_per_axis: per_axis,
+                ..RenderSettings::preview()
+            }
+        }
+        other => {
+            eprintln!(
+                "eval_render_noise: setting '{other}': expected eval, one-sample, all-lights-1, \
+                 all-lights-4, all-lights-9 or converged"
+            );
+            std::process::exit(2);
+        }
     };
     let spec = CameraSpec::from_arg("IMX174,focal_mm=4,pitch_deg=-10")?;
     let config = EvalConfig {

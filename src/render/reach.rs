@@ -141,6 +141,7 @@ impl LightReach {
     }
 
     /// The lists of room `room`, if the floorplan passed the checks.
+    #[cfg(test)]
     #[must_use]
     pub fn room_lights(&self, room: usize) -> Option<&Lists> {
         self.rooms.get(room).map(|r| &r.lights)
@@ -415,7 +416,8 @@ mod tests {
             let (accel, set) = (Accel::build(&scene), LightSet::for_scene(&scene, [1.0, 1.0]));
             let mut rng = crate::rng::stream(seed, "reach-test");
             for (r, room) in scene.rooms.iter().enumerate() {
-                let (points, rects) = set.room_lights(r).expect("generated plans are closed");
+                let lists = set.reach.room_lights(r).expect("generated plans are closed");
+                let (points, rects) = (&lists.points, &lists.rects);
                 let out_points: Vec<usize> = (0..set.points.len()).filter(|i| !points.contains(&(*i as u32))).collect();
                 let out_rects: Vec<usize> = (0..set.rects.len()).filter(|i| !rects.contains(&(*i as u32))).collect();
                 pairs += set.points.len() + set.rects.len();

@@ -58,11 +58,11 @@ fn coarse_neighbours(i: u32, count: u32) -> ([u32; 2], usize) {
 /// one diffuse surface, the same directional lights (the sun) reach them all, and their night
 /// irradiance agrees within [`REFINE_TOLERANCE`].
 ///
-/// The day irradiance is not compared: one window sample per anchor makes it noisy (about 50 %
-/// per anchor), so a test on it would trace nearly every anchor a window lights, and keeping
-/// only the anchors whose noisy values happen to agree biased the mean (+4 % on the day frame,
-/// docs/BENCHMARKS.md, "Adaptive anchors"). The sun's shadow edges, its one sharp feature,
-/// are caught by the directional bits instead.
+/// The day irradiance is not compared: in a window's penumbra an anchor's few visibility
+/// samples make it noisy, and keeping only the anchors whose noisy values happen to agree
+/// biases the mean (+4 % on the day frame with one window sample, before and after windows
+/// were computed in closed form; docs/BENCHMARKS.md, "Adaptive anchors"). The sun's shadow
+/// edges, its one sharp feature, are caught by the directional bits instead.
 fn interpolate(anchors: &[Anchor], cols: u32, xs: &[u32], ys: &[u32]) -> Option<Guide> {
     let mut first: Option<(Guide, f32, u32)> = None;
     let (mut position, mut irradiance) = (Vec3::ZERO, [Vec3::ZERO; 2]);
