@@ -502,6 +502,83 @@ fn adaptive_shading_traces_the_anchors_along_a_sun_shadow_edge() {
     }
 }
 
+/// `settings` with `n x n` window samples per anchor, every light traced, and the window
+/// visibility pooled over `radius` anchors.
+fn window_samples(settings: RenderSettings, n: u32, radius: u32) -> RenderSettings {
+    RenderSettings { rect_samples_per_axis: n, light_cull: 0.0, visibility_filter_radius: radius, ..settings }
+}
+
+/// Mean absolute day luminance difference of `frame` from `reference`, relative to the
+/// reference's mean.
+fn day_error(frame: &Frame, reference: &Frame) -> f32 {
+    let diff: f32 = frame.day_nit.iter().zip(&reference.day_nit).map(|(a, b)| (lum(*a) - lum(*b)).abs()).sum();
+    diff / reference.day_nit.iter().map(|c| lum(*c)).sum::<f32>()
+}
+
+#[test]
+fn pooled_window_visibility_cuts_the_noise_of_few_samples() {
+    // The floor beyond the partition's end of `window_room`, in the window's penumbra (see
+    // `each_view_draws_its_own_noise`). One window sample per anchor is noisy; pooling it over
+    // the anchors on the same surface (interleaved, so a block of them holds a whole lattice of
+    // samples) must bring it closer to a 64-sample frame than the 1-sample frame is, by more
+    // than half. Labels do not change, nor does the frame with the thread count.
+    let scene = window_room();
+    let cam = Camera { pixel_pitch_um: 10.0, ..camera(96, 72, Vec3::new(3.5, 3.6, 2.0), 0.0, -90.0) };
+    for (name, shading) in [("decoupled", decoupled(3)), ("adaptive", adaptive(3))] {
+        let reference = Renderer::new(&scene, window_samples(shading, 8, 0)).render(&cam).unwrap();
+        let one = Renderer::new(&scene, window_samples(shading, 1, 0)).render(&cam).unwrap();
+        let pooled_renderer = Renderer::new(&scene, window_samples(shading, 1, 2));
+        let pooled = pooled_renderer.render(&cam).unwrap();
+        assert_no_nan(&pooled);
+        let (e_one, e_pooled) = (day_error(&one, &reference), day_error(&pooled, &reference));
+        assert!(e_one > 0.02, "{name}: the 1-sample frame is noisy ({e_one})");
+        assert!(e_pooled < 0.5 * e_one, "{name}: pooled error {e_pooled} vs {e_one} unpooled");
+        assert_eq!((&pooled.instance_id, &pooled.depth_m), (&one.instance_id, &one.depth_m), "{name}");
+        let two_threads = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
+        assert!(two_threads.install(|| pooled_renderer.render(&cam)).unwrap() == pooled, "{name}: thread count");
+    }
+}
+
+#[test]
+fn pooling_leaves_a_fully_visible_window_exact() {
+    // A window in the ceiling over an open floor: every anchor sees all of it, so its sampled
+    // share is 1 everywhere and pooling must give back each anchor's exact light, to rounding.
+    let mut scene = floor_scene();
+    scene.lights.push(rect_light(LightGroup::Day, Vec3::new(0.2, 0.1, 2.5), Vec3::X, Vec3::Y, -Vec3::Z, 500.0));
+    let cam = down_camera(Vec3::new(0.0, 0.0, 1.5), 61, 47);
+    for shading in [decoupled(3), adaptive(3)] {
+        let plain = Renderer::new(&scene, window_samples(shading, 1, 0)).render(&cam).unwrap();
+        let pooled = Renderer::new(&scene, window_samples(shading, 1, 2)).render(&cam).unwrap();
+        assert!(plain.day_nit.iter().all(|c| lum(*c) > 0.0));
+        for (a, b) in plain.day_nit.iter().zip(&pooled.day_nit) {
+            assert_close(lum(*b), lum(*a), 1e-5, "pooled vs own exact light");
+        }
+    }
+}
+
+#[test]
+fn rendering_into_a_used_frame_gives_the_fresh_frame() {
+    // `render_into` overwrites every pixel: a frame that held another view, or a view of
+    // another size, comes out as `render` would make it, for every way of shading.
+    let scene = room_of_boxes(Vec3::new(6.0, 5.0, 2.6), 4);
+    let cam = Camera { pixel_pitch_um: 20.0, ..camera(48, 32, Vec3::new(0.5, 0.5, 1.6), 40.0, -20.0) };
+    let other = Camera { yaw_deg: 130.0, ..cam };
+    let larger = Camera { width_px: 64, height_px: 40, ..other };
+    for settings in [RenderSettings::standard(), decoupled(2), window_samples(adaptive(3), 1, 2)] {
+        let renderer = Renderer::new(&scene, settings);
+        let fresh = renderer.render(&cam).unwrap();
+        for previous in [other, larger] {
+            let mut frame = renderer.render(&previous).unwrap();
+            renderer.render_into(&cam, &mut frame).unwrap();
+            assert!(frame == fresh, "{settings:?} after a {}x{} view", previous.width_px, previous.height_px);
+        }
+    }
+    let mut frame = Frame::default();
+    let bad = Camera { width_px: 0, ..cam };
+    assert!(Renderer::new(&scene, RenderSettings::preview()).render_into(&bad, &mut frame).is_err());
+    assert_eq!(frame, Frame::default(), "a bad camera leaves the frame as it was");
+}
+
 #[test]
 fn decoupled_shading_applies_only_where_configured() {
     let scene = room_of_boxes(Vec3::new(6.0, 5.0, 2.6), 4);

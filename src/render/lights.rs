@@ -145,6 +145,37 @@ impl RectLight {
     }
 }
 
+/// The rect lights' (windows') part of a point's direct irradiance, per group and channel, lux.
+///
+/// `visible` is the estimate (each light's exact unshadowed light times its sampled visible
+/// share); `unshadowed` the exact light with nothing in the way, where it was asked for (else
+/// zero). Their ratio is the point's visible share of its window light: the noisy factor,
+/// which [`super::visibility_filter`] pools over neighbours while `unshadowed` stays exact
+/// (the split of Heitz et al. 2018, "Combining analytic direct illumination and stochastic
+/// shadows").
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct RectShare {
+    pub visible: GroupRgb,
+    pub unshadowed: GroupRgb,
+}
+
+impl RectShare {
+    /// Adds `other`, group by group.
+    #[inline(always)]
+    pub fn accumulate(&mut self, other: &RectShare) {
+        for (sum, add) in [(&mut self.visible, &other.visible), (&mut self.unshadowed, &other.unshadowed)] {
+            sum[0] += add[0];
+            sum[1] += add[1];
+        }
+    }
+
+    /// Both parts times `k`.
+    #[must_use]
+    pub fn scaled(&self, k: f32) -> RectShare {
+        RectShare { visible: self.visible.map(|e| e * k), unshadowed: self.unshadowed.map(|e| e * k) }
+    }
+}
+
 /// All usable lights of a scene; lights missing a field their kind needs are skipped.
 #[derive(Clone, Debug, Default)]
 pub struct LightSet {
@@ -282,6 +313,31 @@ impl LightSet {
         sampler: &mut Sampler,
         blockers: &Blockers,
     ) -> GroupRgb {
+        let (other, rects) =
+            self.direct_split(accel, point, ng, ns, rect_samples, rect_strata, cull, sampler, blockers, false);
+        [other[0] + rects.visible[0], other[1] + rects.visible[1]]
+    }
+
+    /// [`LightSet::direct`] in two parts: the point and directional lights, and the rect
+    /// lights' [`RectShare`] (their estimated light and, with `unshadowed` set, the exact light
+    /// they would give unshadowed, which costs the closed form of every rect light in reach,
+    /// the fully shadowed and culled ones too). The draws are those of `direct`.
+    #[allow(clippy::too_many_arguments)]
+    #[must_use]
+    #[inline(always)]
+    pub fn direct_split(
+        &self,
+        accel: &Accel,
+        point: Vec3,
+        ng: Vec3,
+        ns: Vec3,
+        rect_samples: u32,
+        rect_strata: Strata,
+        cull: f32,
+        sampler: &mut Sampler,
+        blockers: &Blockers,
+        unshadowed: bool,
+    ) -> (GroupRgb, RectShare) {
         // Only the lights that can reach the point's room ([`super::reach`]): a light left out
         // of the list is blocked by walls wherever it is sampled, so it adds nothing but cost
         // and, through the group totals, roulette noise.
@@ -336,10 +392,15 @@ impl LightSet {
         }
         let count = rect_samples.max(1);
         let first_rect_slot = all_points + self.directionals.len();
+        let mut share = RectShare::default();
         for (k, &i) in reach.rects.iter().enumerate() {
             let light = &self.rects[i as usize];
             let slot = n_points + k;
             let b = if slot < IMPORTANCE_CACHE { cached[slot] } else { rect_importance(light, point, ns) };
+            // The exact unshadowed light, wanted whatever the samples say: a filter that pools
+            // the visible share of neighbours needs the light that a shadowed point misses.
+            let exact = if unshadowed { rect_irradiance_per_nit(light, point, ns) } else { 0.0 };
+            share.unshadowed[light.group] += light.rgb_nit * exact;
             let Some(weight) = roulette(b, total[light.group], cull, sampler) else { continue };
             // The area samples estimate only what fraction of the light's exact unshadowed
             // irradiance gets through: sum(f V) / sum(f) over them, f the unshadowed integrand.
@@ -366,12 +427,12 @@ impl LightSet {
                 }
             }
             if f_sum > 0.0 && visible_f_sum == 0.0 {
-                continue; // Shadowed at every sample: no need for the closed form.
+                continue; // Shadowed at every sample: nothing gets through.
             }
-            let unshadowed = rect_irradiance_per_nit(light, point, ns);
+            let exact = if unshadowed { exact } else { rect_irradiance_per_nit(light, point, ns) };
             let visible = if f_sum > 0.0 {
                 visible_f_sum / f_sum
-            } else if unshadowed > 0.0 {
+            } else if exact > 0.0 {
                 // Every sample fell on the part of the light below the surface's horizon (one
                 // sample, a window beside the surface): one ray to the centre of what is above.
                 let q = above_horizon_centre(light, point, ns);
@@ -385,9 +446,9 @@ impl LightSet {
             } else {
                 0.0
             };
-            e[light.group] += light.rgb_nit * (unshadowed * visible * weight);
+            share.visible[light.group] += light.rgb_nit * (exact * visible * weight);
         }
-        e
+        (e, share)
     }
 
     /// Bit `i` set where directional light `i` (the first 32) reaches `point` on a surface of

@@ -40,6 +40,7 @@ mod refine;
 pub mod shade;
 pub mod test_util;
 mod tile;
+mod visibility_filter;
 
 use glam::{Vec2, Vec3};
 use rand::Rng;
@@ -48,7 +49,7 @@ use rayon::prelude::*;
 
 pub use accel::Accel;
 pub use camera::{Camera, DEFAULT_LENS_TRANSMITTANCE, PixelRect, sensor_illuminance_lux};
-pub use lights::{Blockers, LightSet, luminance};
+pub use lights::{Blockers, LightSet, RectShare, luminance};
 
 use crate::scene::{LightGroup, Scene};
 use accel::{Hit, SurfacePoint};
@@ -139,6 +140,11 @@ pub struct RenderSettings {
     pub light_cull: f32,
     /// How densely the irradiance is computed; [`ShadingRate::Full`] in every preset.
     pub shading: ShadingRate,
+    /// With anchors ([`ShadingRate::Decoupled`], [`ShadingRate::Adaptive`]): how many anchors
+    /// either way each anchor pools the sampled visibility of its rect lights (windows) with,
+    /// among those on its surface ([`visibility_filter`]); 0 in every preset (each anchor keeps
+    /// its own estimate), ignored without anchors.
+    pub visibility_filter_radius: u32,
     /// Rays for the indirect term of [`Renderer::illuminance_lux`].
     pub probe_indirect_rays: u32,
     /// Rect light samples per axis for [`Renderer::illuminance_lux`].
@@ -160,6 +166,7 @@ impl RenderSettings {
             indirect_clamp: DEFAULT_INDIRECT_CLAMP,
             light_cull: DEFAULT_LIGHT_CULL,
             shading: ShadingRate::Full,
+            visibility_filter_radius: 0,
             probe_indirect_rays: 16,
             probe_rect_samples_per_axis: 2,
             seed: 0,
@@ -177,6 +184,7 @@ impl RenderSettings {
             indirect_clamp: DEFAULT_INDIRECT_CLAMP,
             light_cull: DEFAULT_LIGHT_CULL,
             shading: ShadingRate::Full,
+            visibility_filter_radius: 0,
             probe_indirect_rays: 64,
             probe_rect_samples_per_axis: 4,
             seed: 0,
@@ -194,6 +202,7 @@ impl RenderSettings {
             indirect_clamp: DEFAULT_INDIRECT_CLAMP,
             light_cull: DEFAULT_LIGHT_CULL,
             shading: ShadingRate::Full,
+            visibility_filter_radius: 0,
             probe_indirect_rays: 256,
             probe_rect_samples_per_axis: 6,
             seed: 0,
@@ -286,7 +295,8 @@ impl Strata {
 }
 
 /// One rendered view. Buffers are row-major from the top-left pixel, `width * height` long.
-#[derive(Clone, Debug, PartialEq)]
+/// The default is an empty frame, for [`Renderer::render_into`] to size.
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct Frame {
     pub width: u32,
     pub height: u32,
@@ -401,6 +411,8 @@ struct Guide {
     material: usize,
     instance_id: u32,
     irradiance: GroupRgb,
+    /// The rect lights' part of `irradiance`, for [`visibility_filter`].
+    rects: RectShare,
 }
 
 impl Guide {
@@ -591,48 +603,65 @@ impl<'a> Renderer<'a> {
     /// # Errors
     /// [`RenderError::BadCamera`] for a camera that fails [`Camera::validate`].
     pub fn render(&self, camera: &Camera) -> Result<Frame, RenderError> {
+        camera.validate()?;
+        let mut frame = Frame::blank(camera.width_px, camera.height_px);
+        self.render_into(camera, &mut frame)?;
+        Ok(frame)
+    }
+
+    /// [`Renderer::render`] into `frame`, whose buffers are resized to the view and then
+    /// overwritten pixel by pixel: the same frame, without a fresh allocation per view. A
+    /// caller rendering many views of one size (the evaluator) keeps its frames: at 1936 x
+    /// 1216 a frame is 110 MB, and fresh pages cost the kernel a page fault and a zeroing
+    /// each.
+    ///
+    /// # Errors
+    /// [`RenderError::BadCamera`] for a camera that fails [`Camera::validate`]; `frame` is
+    /// then left as it was.
+    pub fn render_into(&self, camera: &Camera, frame: &mut Frame) -> Result<(), RenderError> {
+        camera.validate()?;
+        frame.reshape(camera.width_px, camera.height_px);
         if self.settings.samples_per_axis > 1 {
-            return self.render_tiled(camera, Job::Samples);
+            self.render_tiled(camera, Job::Samples, frame);
+            return Ok(());
         }
         match self.settings.shading {
             ShadingRate::Decoupled { stride, min_width_px } if stride >= 2 && camera.width_px >= min_width_px => {
-                self.render_decoupled(camera, stride)
+                self.render_decoupled(camera, stride, frame);
             }
             ShadingRate::Adaptive { stride, min_width_px } if stride >= 2 && camera.width_px >= min_width_px => {
-                self.render_adaptive(camera, stride)
+                self.render_adaptive(camera, stride, frame);
             }
-            _ => self.render_tiled(camera, Job::Shade(None)),
+            _ => self.render_tiled(camera, Job::Shade(None), frame),
         }
+        Ok(())
     }
 
-    /// A frame of one centre ray per pixel, traced in tiles (see [`tile`]).
-    fn render_tiled(&self, camera: &Camera, job: Job<'_>) -> Result<Frame, RenderError> {
-        camera.validate()?;
+    /// A frame of one centre ray per pixel, traced in tiles (see [`tile`]), into `frame` (of the
+    /// camera's size, every pixel overwritten).
+    fn render_tiled(&self, camera: &Camera, job: Job<'_>, frame: &mut Frame) {
         let (w, h) = (camera.width_px, camera.height_px);
-        let mut frame = Frame::blank(w, h);
         self.trace_grid(camera, (w, h), Cells::Pixels, job, frame.bands());
-        Ok(frame)
     }
 
     /// [`ShadingRate::Decoupled`]: the anchors first (shaded in full, in tiles of anchors), then
     /// every other pixel from its own camera ray and the anchors' irradiance.
-    fn render_decoupled(&self, camera: &Camera, stride: u32) -> Result<Frame, RenderError> {
-        camera.validate()?;
+    fn render_decoupled(&self, camera: &Camera, stride: u32, frame: &mut Frame) {
         let (w, h) = (camera.width_px, camera.height_px);
         let mut grid = AnchorGrid::layout(stride, w, h);
         let at = Cells::Anchors { stride, width: w, height: h };
         let anchors = self.trace_anchors(camera, (grid.cols, grid.rows), at);
         (grid.pixels, grid.guides) = anchors.into_iter().map(|(pixel, guide)| (Some(pixel), guide)).unzip();
-        Ok(self.shade_from_anchors(camera, &grid))
+        visibility_filter::pool(&mut grid, self.settings.visibility_filter_radius, camera.position);
+        self.shade_from_anchors(camera, &grid, frame);
     }
 
     /// Every pixel of `camera`'s frame from its own camera ray, the finished anchors of `grid`
-    /// copied, the irradiance of the others from `grid`'s guides ([`ShadingRate::Decoupled`]).
-    fn shade_from_anchors(&self, camera: &Camera, grid: &AnchorGrid) -> Frame {
+    /// copied, the irradiance of the others from `grid`'s guides ([`ShadingRate::Decoupled`]),
+    /// into `frame` (of the camera's size, every pixel overwritten).
+    fn shade_from_anchors(&self, camera: &Camera, grid: &AnchorGrid, frame: &mut Frame) {
         let (w, h) = (camera.width_px, camera.height_px);
-        let mut frame = Frame::blank(w, h);
         self.trace_grid(camera, (w, h), Cells::Pixels, Job::Shade(Some(grid)), frame.bands());
-        frame
     }
 
     /// Depth, instance and class ids and normals of `camera`'s view, exactly as [`Renderer::render`]
@@ -642,7 +671,10 @@ impl<'a> Renderer<'a> {
     /// # Errors
     /// [`RenderError::BadCamera`] for a camera that fails [`Camera::validate`].
     pub fn render_labels(&self, camera: &Camera) -> Result<Frame, RenderError> {
-        self.render_tiled(camera, Job::Labels)
+        camera.validate()?;
+        let mut frame = Frame::blank(camera.width_px, camera.height_px);
+        self.render_tiled(camera, Job::Labels, &mut frame);
+        Ok(frame)
     }
 
     /// The instance and class ids of `camera`'s view, exactly as [`Renderer::render`] gives

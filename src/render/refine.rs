@@ -13,8 +13,15 @@
 //! What it can miss: a shadow or highlight narrower than the coarse spacing that falls between
 //! coarse anchors which agree, and the soft shadows of windows, which the test does not look at
 //! ([`interpolate`] says why). Window light is then averaged over fewer samples per area: the
-//! grain of its noise grows from `stride` to `2 stride` pixels across. The frame-level error against full-rate shading is measured by
-//! `bench_render --case decoupled --refine` (docs/BENCHMARKS.md, "Adaptive anchors").
+//! grain of its noise grows from `stride` to `2 stride` pixels across. The frame-level error
+//! against full-rate shading is measured by `bench_render --case decoupled --refine`
+//! (docs/BENCHMARKS.md, "Adaptive anchors").
+//!
+//! With the visibility filter on ([`super::visibility_filter`]), the traced anchors pool their
+//! window visibility once every anchor is placed, and each interpolated anchor then takes the
+//! mean of its pooled coarse neighbours again: pooling it on its own would see only the coarse
+//! anchors within its reach, a part of the interleaved lattice, and print that lattice's
+//! pattern on the frame.
 //!
 //! The decisions are a function of the coarse anchors alone, so frames stay the same at any
 //! thread count.
@@ -23,9 +30,9 @@ use glam::Vec3;
 
 use rayon::prelude::*;
 
-use super::lights::{Blockers, luminance};
+use super::lights::{Blockers, RectShare, luminance};
 use super::tile::{Cells, Job, TILE};
-use super::{AnchorGrid, Camera, Frame, Guide, PixelOut, RenderError, Renderer};
+use super::{AnchorGrid, Camera, Frame, Guide, PixelOut, Renderer};
 
 /// Largest spread (max - min) of the neighbouring coarse anchors' night irradiance luminance,
 /// as a fraction of the largest, for an anchor to take their mean. Engineering
@@ -36,17 +43,9 @@ pub const REFINE_TOLERANCE: f32 = 0.1;
 /// Index of the night group in a [`super::GroupRgb`] (day 0, night 1).
 const NIGHT: usize = 1;
 
-/// One anchor of the fine grid while it is being filled.
-#[derive(Clone, Copy)]
-enum Anchor {
-    Pending,
-    /// Shaded in full: its finished pixel, its guide where its surface is diffuse, and (coarse
-    /// anchors only) which directional lights reach it
-    /// ([`LightSet::directionals_reaching`](super::lights::LightSet::directionals_reaching)).
-    Traced(PixelOut, Option<Guide>, u32),
-    /// The mean of its coarse neighbours.
-    Interpolated(Guide),
-}
+/// The coarse anchors an interpolated anchor took the mean of: columns `xs[..nx]`, rows
+/// `ys[..ny]` ([`coarse_neighbours`] along each axis).
+type Parents = ([u32; 2], usize, [u32; 2], usize);
 
 /// The coarse anchors beside fine anchor index `i` of `count` along one axis: itself where it
 /// is coarse (even, or the last), else the two even indices around it.
@@ -63,13 +62,14 @@ fn coarse_neighbours(i: u32, count: u32) -> ([u32; 2], usize) {
 /// biases the mean (+4 % on the day frame with one window sample, before and after windows
 /// were computed in closed form; docs/BENCHMARKS.md, "Adaptive anchors"). The sun's shadow
 /// edges, its one sharp feature, are caught by the directional bits instead.
-fn interpolate(anchors: &[Anchor], cols: u32, xs: &[u32], ys: &[u32]) -> Option<Guide> {
+fn interpolate(grid: &AnchorGrid, suns: &[u32], xs: &[u32], ys: &[u32]) -> Option<Guide> {
     let mut first: Option<(Guide, f32, u32)> = None;
-    let (mut position, mut irradiance) = (Vec3::ZERO, [Vec3::ZERO; 2]);
+    let (mut position, mut irradiance, mut rects) = (Vec3::ZERO, [Vec3::ZERO; 2], RectShare::default());
     let (mut lo, mut hi) = (f32::INFINITY, 0.0f32);
     for &y in ys {
         for &x in xs {
-            let Anchor::Traced(pixel, Some(g), sun) = anchors[y as usize * cols as usize + x as usize] else {
+            let k = y as usize * grid.cols as usize + x as usize;
+            let (Some(pixel), Some(g), sun) = (grid.pixels[k], grid.guides[k], suns[k]) else {
                 return None;
             };
             match first {
@@ -85,6 +85,7 @@ fn interpolate(anchors: &[Anchor], cols: u32, xs: &[u32], ys: &[u32]) -> Option<
             (lo, hi) = (lo.min(y), hi.max(y));
             irradiance[0] += g.irradiance[0];
             irradiance[1] += g.irradiance[1];
+            rects.accumulate(&g.rects);
         }
     }
     if hi - lo > REFINE_TOLERANCE * hi {
@@ -92,15 +93,29 @@ fn interpolate(anchors: &[Anchor], cols: u32, xs: &[u32], ys: &[u32]) -> Option<
     }
     let (f, _, _) = first?;
     let n = (xs.len() * ys.len()) as f32;
-    Some(Guide { position: position / n, irradiance: irradiance.map(|e| e / n), ..f })
+    Some(Guide { position: position / n, irradiance: irradiance.map(|e| e / n), rects: rects.scaled(1.0 / n), ..f })
+}
+
+/// The mean irradiance of the anchors `(x, y)` for `x` in `xs`, `y` in `ys` (each with a guide),
+/// summed in [`interpolate`]'s order.
+fn mean_irradiance(guides: &[Option<Guide>], cols: u32, xs: &[u32], ys: &[u32]) -> Option<super::GroupRgb> {
+    let mut sum = [Vec3::ZERO; 2];
+    for &y in ys {
+        for &x in xs {
+            let g = guides[y as usize * cols as usize + x as usize].as_ref()?;
+            sum[0] += g.irradiance[0];
+            sum[1] += g.irradiance[1];
+        }
+    }
+    let n = (xs.len() * ys.len()) as f32;
+    Some(sum.map(|e| e / n))
 }
 
 impl Renderer<'_> {
     /// [`ShadingRate::Adaptive`](super::ShadingRate::Adaptive) at fine anchor spacing `stride`:
     /// the coarse anchors, then the fine ones that need tracing (module docs), then every other
     /// pixel as in [`ShadingRate::Decoupled`](super::ShadingRate::Decoupled).
-    pub(super) fn render_adaptive(&self, camera: &Camera, stride: u32) -> Result<Frame, RenderError> {
-        camera.validate()?;
+    pub(super) fn render_adaptive(&self, camera: &Camera, stride: u32, frame: &mut Frame) {
         let (w, h) = (camera.width_px, camera.height_px);
         let mut grid = AnchorGrid::layout(stride, w, h);
         let (cols, rows) = (grid.cols, grid.rows);
@@ -124,27 +139,37 @@ impl Renderer<'_> {
             })
             .flatten()
             .collect();
-        let mut anchors = vec![Anchor::Pending; cols as usize * rows as usize];
+        // The fine grid, filled in place: a traced anchor has its finished pixel, an
+        // interpolated one only a guide, one still pending neither.
+        let n = cols as usize * rows as usize;
+        (grid.pixels, grid.guides) = (vec![None; n], vec![None; n]);
+        let mut fine_suns = vec![0u32; n];
         for cj in 0..coarse_grid.1 {
             for ci in 0..coarse_grid.0 {
                 let (i, j) = ((2 * ci).min(cols - 1), (2 * cj).min(rows - 1));
                 let c = (cj * coarse_grid.0 + ci) as usize;
-                let (pixel, guide) = coarse[c];
-                anchors[(j * cols + i) as usize] = Anchor::Traced(pixel, guide, suns[c]);
+                let k = (j * cols + i) as usize;
+                (grid.pixels[k], grid.guides[k], fine_suns[k]) = (Some(coarse[c].0), coarse[c].1, suns[c]);
             }
         }
         let mut todo: Vec<(u32, u32)> = Vec::new();
         let mut todo_index: Vec<usize> = Vec::new();
+        // Each interpolated anchor and its coarse neighbours, to take their mean again once
+        // their visibility is pooled.
+        let mut interpolated: Vec<(usize, Parents)> = Vec::new();
         for j in 0..rows {
             let (ys, ny) = coarse_neighbours(j, rows);
             for i in 0..cols {
                 let k = (j * cols + i) as usize;
-                if !matches!(anchors[k], Anchor::Pending) {
+                if grid.pixels[k].is_some() {
                     continue;
                 }
                 let (xs, nx) = coarse_neighbours(i, cols);
-                match interpolate(&anchors, cols, &xs[..nx], &ys[..ny]) {
-                    Some(guide) => anchors[k] = Anchor::Interpolated(guide),
+                match interpolate(&grid, &fine_suns, &xs[..nx], &ys[..ny]) {
+                    Some(guide) => {
+                        grid.guides[k] = Some(guide);
+                        interpolated.push((k, (xs, nx, ys, ny)));
+                    }
                     None => {
                         todo.push(((i * stride).min(w - 1), (j * stride).min(h - 1)));
                         todo_index.push(k);
@@ -153,22 +178,24 @@ impl Renderer<'_> {
             }
         }
         if !todo.is_empty() {
-            let grid = (TILE, (todo.len() as u32).div_ceil(TILE));
-            let traced = self.trace_anchors(camera, grid, Cells::Listed { pixels: &todo });
+            let todo_grid = (TILE, (todo.len() as u32).div_ceil(TILE));
+            let traced = self.trace_anchors(camera, todo_grid, Cells::Listed { pixels: &todo });
             for (&k, &(pixel, guide)) in todo_index.iter().zip(&traced) {
-                anchors[k] = Anchor::Traced(pixel, guide, 0);
+                (grid.pixels[k], grid.guides[k]) = (Some(pixel), guide);
             }
         }
-        (grid.pixels, grid.guides) = anchors
-            .into_iter()
-            .map(|a| match a {
-                Anchor::Traced(pixel, guide, _) => (Some(pixel), guide),
-                Anchor::Interpolated(guide) => (None, Some(guide)),
-                // Every anchor is coarse, interpolated or traced by now.
-                Anchor::Pending => (None, None),
-            })
-            .unzip();
-        Ok(self.shade_from_anchors(camera, &grid))
+        let radius = self.settings.visibility_filter_radius;
+        if radius > 0 {
+            super::visibility_filter::pool(&mut grid, radius, camera.position);
+            for (k, (xs, nx, ys, ny)) in interpolated {
+                if let (Some(e), Some(g)) =
+                    (mean_irradiance(&grid.guides, cols, &xs[..nx], &ys[..ny]), &mut grid.guides[k])
+                {
+                    g.irradiance = e;
+                }
+            }
+        }
+        self.shade_from_anchors(camera, &grid, frame);
     }
 
     /// The cells `at` of a `cols x rows` grid shaded in full, row-major: pixels and guides.
@@ -180,7 +207,7 @@ impl Renderer<'_> {
     ) -> Vec<(PixelOut, Option<Guide>)> {
         let mut anchors = vec![(PixelOut::default(), None); cols as usize * rows as usize];
         let bands: Vec<&mut [(PixelOut, Option<Guide>)]> = anchors.chunks_mut(cols as usize * TILE as usize).collect();
-        self.trace_grid(camera, (cols, rows), at, Job::Shade(None), bands);
+        self.trace_grid(camera, (cols, rows), at, Job::Anchor, bands);
         anchors
     }
 }

@@ -28,7 +28,7 @@ use std::sync::OnceLock;
 use glam::{Vec2, Vec3};
 
 use super::accel::{Accel, Hit, SurfacePoint};
-use super::lights::{Blockers, LightSet, luminance, ray_epsilon};
+use super::lights::{Blockers, LightSet, RectShare, luminance, ray_epsilon};
 use super::{GroupRgb, RenderSettings, Sampler, Strata};
 use crate::scene::{Material, Scene, Texture};
 
@@ -311,20 +311,46 @@ impl Tracer<'_> {
         rect_strata: Strata,
         sampler: &mut Sampler,
     ) -> GroupRgb {
+        let rect_samples = self.settings.rect_samples_per_axis.pow(2);
+        self.irradiance_split(surface, strata, rect_samples, rect_strata, sampler, false).0
+    }
+
+    /// A rotation in [0, 1) drawn from the view's seed: the one every anchor of the view shares
+    /// for its interleaved rect-light samples (`Renderer::rect_plan`).
+    #[inline(always)]
+    pub fn view_rotation(&self) -> f32 {
+        let bits = crate::rng::fnv1a64(&self.pixel_seed.to_le_bytes());
+        (bits >> 40) as f32 * (1.0 / (1u64 << 24) as f32)
+    }
+
+    /// [`Tracer::irradiance`] with `rect_samples` samples per rect light and the rect lights'
+    /// part of it ([`RectShare`], its exact unshadowed light too where `unshadowed` is set),
+    /// for the visibility filter of anchors.
+    #[inline(always)]
+    pub fn irradiance_split(
+        &self,
+        surface: &SurfacePoint,
+        strata: Strata,
+        rect_samples: u32,
+        rect_strata: Strata,
+        sampler: &mut Sampler,
+        unshadowed: bool,
+    ) -> (GroupRgb, RectShare) {
         let (p, ng, ns) = (surface.position, surface.geometric_normal, surface.shading_normal);
-        let direct = self.lights.direct(
+        let (other, rects) = self.lights.direct_split(
             self.accel,
             p,
             ng,
             ns,
-            self.settings.rect_samples_per_axis.pow(2),
+            rect_samples,
             rect_strata,
             self.settings.light_cull,
             sampler,
             self.blockers,
+            unshadowed,
         );
         let indirect = self.indirect_irradiance(p, ng, ns, self.settings.indirect_rays, strata, sampler);
-        add(direct, indirect)
+        (add(add(other, rects.visible), indirect), rects)
     }
 
     /// Radiance leaving a camera-ray hit towards the camera: `rho / pi * e` of the diffuse part

@@ -17,15 +17,21 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::lights::Blockers;
+use super::lights::{Blockers, RectShare};
 use super::packet::{PACKET_RAYS, RayPacket};
 use super::shade::{Primary, SurfaceHit, Tracer};
 use super::{
-    AnchorGrid, Camera, Frame, GroupRgb, Guide, IdFrame, PIXEL_STREAM, PixelOut, PixelRect, Renderer, Sampler, Strata,
-    finite_radiance,
+    AnchorGrid, Camera, Frame, GroupRgb, Guide, IdFrame, PIXEL_STREAM, PixelOut, PixelRect, Renderer, Sampler,
+    ShadingRate, Strata, finite_radiance,
 };
 use crate::render::accel::Hit;
 use crate::simd::Dispatch;
+
+/// Period, in anchors along each axis, of the interleaved rect-light samples of anchors
+/// ([`Renderer::rect_plan`]): every 3 x 3 block of anchors holds the whole lattice, and so does
+/// a radius-1 pool of a decoupled grid and a radius-2 pool of the coarse anchors of an adaptive
+/// one (fine indices `i - 2`, `i`, `i + 2` differ modulo 3).
+pub(super) const INTERLEAVE_PERIOD: u32 = 3;
 
 /// Side of a tile, pixels: one tile's rays fill one packet.
 pub(super) const TILE: u32 = 8;
@@ -41,6 +47,10 @@ pub(super) enum Job<'g> {
     /// The full pixel from its centre ray (one camera ray per pixel); with a grid, the
     /// irradiance comes from its anchors where they allow.
     Shade(Option<&'g AnchorGrid>),
+    /// An anchor of decoupled shading: [`Job::Shade`] without a grid, its rect-light samples
+    /// interleaved with its neighbours' where the visibility filter pools them
+    /// ([`Renderer::rect_plan`]).
+    Anchor,
     /// Labels from the centre ray, radiance averaged over `n x n` stratified jittered camera
     /// rays (`samples_per_axis` n > 1).
     Samples,
@@ -163,6 +173,19 @@ impl Frame {
             class_id: vec![0; n],
             normal: vec![[0.0; 3]; n],
         }
+    }
+
+    /// Resizes every buffer to `w x h` pixels (new pixels zeroed; a frame of that size already
+    /// keeps its buffers and their contents).
+    pub(super) fn reshape(&mut self, w: u32, h: u32) {
+        let n = w as usize * h as usize;
+        (self.width, self.height) = (w, h);
+        self.day_nit.resize(n, [0.0; 3]);
+        self.night_nit.resize(n, [0.0; 3]);
+        self.depth_m.resize(n, 0.0);
+        self.instance_id.resize(n, 0);
+        self.class_id.resize(n, 0);
+        self.normal.resize(n, [0.0; 3]);
     }
 
     /// The frame's buffers in bands of `TILE` rows.
@@ -332,9 +355,9 @@ impl Renderer<'_> {
             match job {
                 // `Ids` returned above, before any surface was interpolated.
                 Job::Ids | Job::Labels => sink.put(slot, pixel_labels, None),
-                Job::Shade(grid) => {
+                Job::Shade(_) | Job::Anchor => {
                     let (pixel, guide) =
-                        self.shade_centre(&tracer, camera, (x, y), dir, hit, &emitters, pixel_labels, grid);
+                        self.shade_centre(&tracer, camera, (x, y), dir, hit, &emitters, pixel_labels, job);
                     sink.put(slot, pixel, guide);
                 }
                 Job::Samples => labels.push(pixel_labels),
@@ -405,8 +428,9 @@ impl Renderer<'_> {
     }
 
     /// Shades pixel `(x, y)` whose centre ray along `dir` found `hit`: `labels` plus radiance,
-    /// and the pixel's [`Guide`] where its surface is diffuse. With `grid`, the irradiance comes
-    /// from the anchors where they lie on the same surface.
+    /// and the pixel's [`Guide`] where its surface is diffuse. With a grid (`job` is
+    /// `Shade(Some(grid))`), the irradiance comes from the anchors where they lie on the same
+    /// surface.
     ///
     /// The pixel's stream draws the strata rotations first, then the irradiance samples, then
     /// the specular ones; the rotations are drawn only when a later draw needs them (an
@@ -423,8 +447,12 @@ impl Renderer<'_> {
         hit: Option<(f32, super::accel::SurfacePoint)>,
         emitters: &[u32],
         labels: PixelOut,
-        grid: Option<&AnchorGrid>,
+        job: Job<'_>,
     ) -> (PixelOut, Option<Guide>) {
+        let grid = match job {
+            Job::Shade(grid) => grid,
+            _ => None,
+        };
         let t = hit.map_or(f32::INFINITY, |h| h.0);
         let s = match tracer.primary(camera.position, dir, hit, emitters) {
             Primary::Miss => return (labels, None),
@@ -443,10 +471,12 @@ impl Renderer<'_> {
         };
         let e = match interpolated {
             _ if s.response.diffuse == Vec3::ZERO => None,
-            Some(e) => Some(e),
+            Some(e) => Some((e, RectShare::default())),
             None => {
                 let (bounce, rect) = *strata.insert(self.pixel_strata(&mut sampler));
-                Some(tracer.irradiance(&s.surface, bounce, rect, &mut sampler))
+                let (rect_samples, rect) = self.rect_plan(tracer, (x, y), job, rect);
+                let unshadowed = self.settings.visibility_filter_radius > 0;
+                Some(tracer.irradiance_split(&s.surface, bounce, rect_samples, rect, &mut sampler, unshadowed))
             }
         };
         if strata.is_none() && self.settings.specular && s.response.specular != Vec3::ZERO {
@@ -465,8 +495,52 @@ impl Renderer<'_> {
         (strata, Strata { first: 0, stride: 1, total: rect_total, rotation: rect_rotation })
     }
 
-    /// A shaded pixel from its irradiance `e` (`None` without a diffuse part), with its
-    /// [`Guide`] where it has one.
+    /// How many rect-light samples pixel `(x, y)` takes and where (`own`: its strata of
+    /// [`Renderer::pixel_strata`]).
+    ///
+    /// Without the visibility filter, `own` and the setting's count. With it, the anchors pool
+    /// their samples with their neighbours' ([`super::visibility_filter`]), so an anchor takes
+    /// its place in a lattice of [`INTERLEAVE_PERIOD`]^2 times as many points, shared with
+    /// the anchors around it, whose indices modulo the period differ: any
+    /// `INTERLEAVE_PERIOD x INTERLEAVE_PERIOD` block of anchors covers the whole lattice, a
+    /// stratified estimate where independent points would leave clumps and gaps (interleaved
+    /// sampling, Keller and Heidrich 2001). The lattice's rotation is one per view, drawn from
+    /// the view's seed, so the pattern is new in every frame. A decoupled pixel that no anchor
+    /// lends its irradiance (a silhouette, a crease) pools with nobody: it takes a lattice of
+    /// its own, as many points as a block of one-sample anchors holds, at least the setting's
+    /// count.
+    #[inline(always)]
+    fn rect_plan(&self, tracer: &Tracer<'_>, (x, y): (u32, u32), job: Job<'_>, own: Strata) -> (u32, Strata) {
+        let per_point = self.settings.rect_samples_per_axis.pow(2);
+        let stride = match self.settings.shading {
+            ShadingRate::Decoupled { stride, .. } | ShadingRate::Adaptive { stride, .. } => stride.max(1),
+            ShadingRate::Full => 1,
+        };
+        let slots = INTERLEAVE_PERIOD * INTERLEAVE_PERIOD;
+        match job {
+            _ if self.settings.visibility_filter_radius == 0 => (per_point, own),
+            Job::Anchor => {
+                let (i, j) = (x / stride, y / stride);
+                // Lattice points are ordered along the first coordinate, in thirds: the third is a
+                // Latin square of (i, j), so each row and each column of a block spans all
+                // three, and a pool cut short by the frame's edge or a silhouette still does.
+                let third = (i + j) % INTERLEAVE_PERIOD;
+                let slot = INTERLEAVE_PERIOD * third + j % INTERLEAVE_PERIOD;
+                // One rotation for the whole view: a rotation per block of anchors measured
+                // twice the error on house frames, since most pools straddle two blocks.
+                let rotation = tracer.view_rotation();
+                (per_point, Strata { first: slot, stride: slots, total: slots * per_point, rotation })
+            }
+            Job::Shade(Some(_)) => {
+                let count = slots.max(per_point);
+                (count, Strata { total: count, ..own })
+            }
+            _ => (per_point, own),
+        }
+    }
+
+    /// A shaded pixel from its irradiance `e` and the rect lights' part of it (`None` without a
+    /// diffuse part), with its [`Guide`] where it has one.
     #[inline(always)]
     pub(super) fn finish(
         &self,
@@ -474,17 +548,18 @@ impl Renderer<'_> {
         mut out: PixelOut,
         dir: Vec3,
         s: &SurfaceHit,
-        e: Option<GroupRgb>,
+        e: Option<(GroupRgb, RectShare)>,
         sampler: &mut Sampler,
     ) -> (PixelOut, Option<Guide>) {
-        let guide = e.map(|irradiance| Guide {
+        let guide = e.map(|(irradiance, rects)| Guide {
             position: s.surface.position,
             normal: s.surface.shading_normal,
             material: s.surface.material,
             instance_id: out.instance_id,
             irradiance,
+            rects,
         });
-        out.radiance = finite_radiance(tracer.surface_radiance(dir, s, e, sampler));
+        out.radiance = finite_radiance(tracer.surface_radiance(dir, s, e.map(|(e, _)| e), sampler));
         (out, guide)
     }
 }
@@ -528,10 +603,13 @@ mod tests {
             shading: ShadingRate::Adaptive { stride: 2, min_width_px: 0 },
             ..RenderSettings::preview()
         };
+        let pooled =
+            RenderSettings { visibility_filter_radius: 2, rect_samples_per_axis: 2, light_cull: 0.0, ..adaptive };
         let cases = [
             ("preview", RenderSettings::preview()),
             ("decoupled", decoupled),
             ("adaptive", adaptive),
+            ("adaptive, pooled windows", pooled),
             ("standard", RenderSettings { seed: 5, ..RenderSettings::standard() }),
         ];
         for (name, settings) in cases {
