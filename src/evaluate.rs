@@ -182,38 +182,41 @@ pub const USABLE_MAX_CLIPPED_FRACTION: f64 = 0.5;
 pub const DEFAULT_MIN_USABLE_FRACTION: f64 = 0.5;
 
 /// Frames at least this wide are shaded at anchors ([`ShadingRate::Adaptive`]) by the evaluator:
-/// all of them. With nine window samples, full-rate shading made a 320 px candidate 8x
-/// dearer than anchors (24 against 3.0 user-s on the default camera, houses 0 and 1) for day /
-/// night inliers of 147 / 132 against 123 / 125 and the same AP; at 1936 px anchors leave
-/// 307 / 235 where a converged render gives 361 / 237, the same shortfall by day
-/// (docs/BENCHMARKS.md, "Render noise and ORB inliers").
+/// all of them. Full-rate shading made a 320 px candidate 8x dearer than anchors (session 8: 24
+/// against 3.0 user-s on the default camera, houses 0 and 1) for day / night inliers of 147 /
+/// 132 against 123 / 125 and the same AP; the setting of session 9 takes 2.4 user-s there for
+/// 118 / 120 (docs/BENCHMARKS.md, "Session 9").
 pub const EVAL_DECOUPLED_MIN_WIDTH_PX: u32 = 0;
 /// Anchor spacing of the evaluator's decoupled shading, pixels.
-pub const EVAL_DECOUPLED_STRIDE: u32 = 3;
-/// Visibility samples per axis of each window in the evaluator's render (nine in all).
-pub const EVAL_RECT_SAMPLES_PER_AXIS: u32 = 3;
+pub const EVAL_DECOUPLED_STRIDE: u32 = 4;
+/// Visibility samples per axis of each window at each anchor of the evaluator's render (four in
+/// all, pooled with the neighbours': [`EVAL_VISIBILITY_FILTER_RADIUS`]).
+pub const EVAL_RECT_SAMPLES_PER_AXIS: u32 = 2;
+/// Anchors either way whose window visibility each anchor of the evaluator's render pools
+/// ([`RenderSettings::visibility_filter_radius`]): with the adaptive grid's coarse anchors two
+/// apart, 3 x 3 of them, 36 interleaved samples.
+pub const EVAL_VISIBILITY_FILTER_RADIUS: u32 = 2;
 
 /// The evaluator's ray-tracer settings: [`RenderSettings::preview`] (one ray per pixel through
-/// its centre, no bounce) with every light traced (no culling roulette) and
-/// [`EVAL_RECT_SAMPLES_PER_AXIS`]^2 visibility samples per window, and
-/// [`ShadingRate::Adaptive`] shading (irradiance at anchors every [`EVAL_DECOUPLED_STRIDE`]
-/// pixels, filled coarse to fine and interpolated over the same surface) on frames of any width
-/// ([`EVAL_DECOUPLED_MIN_WIDTH_PX`]).
+/// its centre, no bounce) with every light traced (no culling roulette),
+/// [`EVAL_RECT_SAMPLES_PER_AXIS`]^2 visibility samples per window at each anchor pooled over
+/// [`EVAL_VISIBILITY_FILTER_RADIUS`] anchors, and [`ShadingRate::Adaptive`] shading
+/// (irradiance at anchors every [`EVAL_DECOUPLED_STRIDE`] pixels, filled coarse to fine and
+/// interpolated over the same surface) on frames of any width ([`EVAL_DECOUPLED_MIN_WIDTH_PX`]).
 ///
 /// Why anchors: shadow rays and light selection are most of a frame's cost and nearly all of it
 /// is irradiance, which varies slowly over a surface, while texture and edges, which ORB and
 /// the detector see, are still sampled at every pixel (docs/BENCHMARKS.md, "Decoupled shading",
 /// "Adaptive anchors").
 ///
-/// Why nine window samples and no roulette: the render's own noise must stay well below what
+/// Why pooled window samples and no roulette: the render's own noise must stay well below what
 /// the features and detections respond to. Since each view draws its own random numbers
 /// ([`crate::render::Camera::view_key`]), render noise is new in every frame, as a real
 /// scene's is not, and it costs ORB inliers: on the default camera at 1936 px (seeds 0..2),
-/// one window sample and culling gave 103 day inliers per pair where 16 samples and no culling
-/// give 361; this setting gives 307 (and the night 235 of 237) for 1.15x the CPU of the old
-/// setting, where plain decoupled shading at nine samples costs 2.1x; at 320 px, where the old
-/// setting shaded every pixel, it costs half the CPU of that (docs/BENCHMARKS.md, "Render
-/// noise and ORB inliers").
+/// one window sample and culling gave 103 day inliers per pair where 16 samples per anchor
+/// give 360. Nine samples per anchor at stride 3 (session 8) gave 307 in 38.7 s; four per
+/// anchor pooled over their neighbours at stride 4 give 341 (night 228 of 233) in 29.8 s
+/// (docs/BENCHMARKS.md, "Session 9").
 ///
 /// Known problems (module docs, "Day versus night"): without bounce light, surfaces no sun or
 /// window reaches directly are black by day, so narrow cameras lose usable day frames; one
@@ -225,6 +228,7 @@ pub fn eval_render_settings() -> RenderSettings {
     RenderSettings {
         shading: ShadingRate::Adaptive { stride: EVAL_DECOUPLED_STRIDE, min_width_px: EVAL_DECOUPLED_MIN_WIDTH_PX },
         rect_samples_per_axis: EVAL_RECT_SAMPLES_PER_AXIS,
+        visibility_filter_radius: EVAL_VISIBILITY_FILTER_RADIUS,
         light_cull: 0.0,
         ..RenderSettings::preview()
     }
@@ -780,6 +784,9 @@ fn compute(
         let threshold_ids: BTreeSet<u32> = scene.thresholds.iter().map(|t| t.instance_id).collect();
         let jobs: Vec<(usize, u8)> = roles.into_iter().collect();
         let builtin = config.detector.is_none();
+        // Frames finished with, for the next pose to render into (`Renderer::render_into`):
+        // as many as poses run at once, however many poses there are.
+        let spare_frames: Mutex<Vec<Frame>> = Mutex::new(Vec::new());
         let results: Vec<Result<PoseResult, RenderError>> = jobs
             .par_iter()
             .map(|&(i, role)| {
@@ -799,7 +806,8 @@ fn compute(
                         times: [secs(t0), 0.0, 0.0],
                     });
                 }
-                let frame: Frame = renderer.render(&camera)?;
+                let mut frame = spare_frames.lock().map(|mut v| v.pop()).ok().flatten().unwrap_or_default();
+                renderer.render_into(&camera, &mut frame)?;
                 let mut times = [secs(t0), 0.0, 0.0];
                 let mut out = PoseResult {
                     thresholds: threshold_pixels(&frame.class_id, &frame.instance_id, &threshold_ids),
@@ -870,6 +878,9 @@ fn compute(
                 }
                 out.gt = gt;
                 out.times = times;
+                if let Ok(mut spare) = spare_frames.lock() {
+                    spare.push(frame);
+                }
                 Ok(out)
             })
             .collect();
