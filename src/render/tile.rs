@@ -475,7 +475,8 @@ impl Renderer<'_> {
             None => {
                 let (bounce, rect) = *strata.insert(self.pixel_strata(&mut sampler));
                 let (rect_samples, rect) = self.rect_plan(tracer, (x, y), job, rect);
-                let unshadowed = self.settings.visibility_filter_radius > 0;
+                // Only an anchor's light is pooled, so only an anchor needs its unshadowed part.
+                let unshadowed = matches!(job, Job::Anchor) && self.settings.visibility_filter_radius > 0;
                 Some(tracer.irradiance_split(&s.surface, bounce, rect_samples, rect, &mut sampler, unshadowed))
             }
         };
