@@ -64,7 +64,6 @@ fn coarse_neighbours(i: u32, count: u32) -> ([u32; 2], usize) {
 /// edges, its one sharp feature, are caught by the directional bits instead.
 fn interpolate(grid: &AnchorGrid, suns: &[u32], xs: &[u32], ys: &[u32]) -> Option<Guide> {
     let mut first: Option<(Guide, f32, u32)> = None;
-    let (mut position, mut irradiance, mut rects) = (Vec3::ZERO, [Vec3::ZERO; 2], RectShare::default());
     let (mut lo, mut hi) = (f32::INFINITY, 0.0f32);
     for &y in ys {
         for &x in xs {
@@ -80,35 +79,38 @@ fn interpolate(grid: &AnchorGrid, suns: &[u32], xs: &[u32], ys: &[u32]) -> Optio
                     }
                 }
             }
-            position += g.position;
             let y = luminance(g.irradiance[NIGHT]);
             (lo, hi) = (lo.min(y), hi.max(y));
-            irradiance[0] += g.irradiance[0];
-            irradiance[1] += g.irradiance[1];
-            rects.accumulate(&g.rects);
         }
     }
     if hi - lo > REFINE_TOLERANCE * hi {
         return None;
     }
-    let (f, _, _) = first?;
-    let n = (xs.len() * ys.len()) as f32;
-    Some(Guide { position: position / n, irradiance: irradiance.map(|e| e / n), rects: rects.scaled(1.0 / n), ..f })
+    mean_guide(&grid.guides, grid.cols, xs, ys)
 }
 
-/// The mean irradiance of the anchors `(x, y)` for `x` in `xs`, `y` in `ys` (each with a guide),
-/// summed in [`interpolate`]'s order.
-fn mean_irradiance(guides: &[Option<Guide>], cols: u32, xs: &[u32], ys: &[u32]) -> Option<super::GroupRgb> {
-    let mut sum = [Vec3::ZERO; 2];
+/// The guide of the first of the anchors `(x, y)` for `x` in `xs`, `y` in `ys` with their mean
+/// position, irradiance and rect-light share; `None` if one has no guide.
+fn mean_guide(guides: &[Option<Guide>], cols: u32, xs: &[u32], ys: &[u32]) -> Option<Guide> {
+    let (mut position, mut irradiance, mut rects) = (Vec3::ZERO, [Vec3::ZERO; 2], RectShare::default());
+    let mut first = None;
     for &y in ys {
         for &x in xs {
-            let g = guides[y as usize * cols as usize + x as usize].as_ref()?;
-            sum[0] += g.irradiance[0];
-            sum[1] += g.irradiance[1];
+            let g = guides[y as usize * cols as usize + x as usize]?;
+            first.get_or_insert(g);
+            position += g.position;
+            irradiance[0] += g.irradiance[0];
+            irradiance[1] += g.irradiance[1];
+            rects.accumulate(&g.rects);
         }
     }
     let n = (xs.len() * ys.len()) as f32;
-    Some(sum.map(|e| e / n))
+    Some(Guide {
+        position: position / n,
+        irradiance: irradiance.map(|e| e / n),
+        rects: rects.scaled(1.0 / n),
+        ..first?
+    })
 }
 
 impl Renderer<'_> {
@@ -188,11 +190,7 @@ impl Renderer<'_> {
         if radius > 0 {
             super::visibility_filter::pool(&mut grid, radius, camera.position);
             for (k, (xs, nx, ys, ny)) in interpolated {
-                if let (Some(e), Some(g)) =
-                    (mean_irradiance(&grid.guides, cols, &xs[..nx], &ys[..ny]), &mut grid.guides[k])
-                {
-                    g.irradiance = e;
-                }
+                grid.guides[k] = mean_guide(&grid.guides, cols, &xs[..nx], &ys[..ny]);
             }
         }
         self.shade_from_anchors(camera, &grid, frame);
