@@ -49,7 +49,8 @@ use rayon::prelude::*;
 
 pub use accel::Accel;
 pub use camera::{Camera, DEFAULT_LENS_TRANSMITTANCE, PixelRect, sensor_illuminance_lux};
-pub use lights::{Blockers, LightSet, RectShare, luminance};
+use lights::RectShare;
+pub use lights::{Blockers, LightSet, luminance};
 
 use crate::scene::{LightGroup, Scene};
 use accel::{Hit, SurfacePoint};

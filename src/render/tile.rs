@@ -31,7 +31,7 @@ use crate::simd::Dispatch;
 /// ([`Renderer::rect_plan`]): every 3 x 3 block of anchors holds the whole lattice, and so does
 /// a radius-1 pool of a decoupled grid and a radius-2 pool of the coarse anchors of an adaptive
 /// one (fine indices `i - 2`, `i`, `i + 2` differ modulo 3).
-pub(super) const INTERLEAVE_PERIOD: u32 = 3;
+const INTERLEAVE_PERIOD: u32 = 3;
 
 /// Side of a tile, pixels: one tile's rays fill one packet.
 pub(super) const TILE: u32 = 8;
