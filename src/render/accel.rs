@@ -10,23 +10,65 @@
 //! the test accepts zero, so a ray never slips between two triangles that share an edge; the
 //! edge functions are re-evaluated in f64 when they are exactly zero in f32, as the paper does.
 //!
-//! The build is sequential (obvhs' `parallel` feature is off), so the tree, and with it which
-//! of two coincident triangles a ray reports, is the same on every run and thread count.
+//! obvhs builds the tree; rays walk a copy of it with exact `f32` child boxes tested four lanes
+//! at a time ([`super::wide`] says why), single rays there and coherent rays in packets
+//! ([`super::packet`]). The build is sequential (obvhs' `parallel` feature is off), so the
+//! tree, and with it which of two coincident triangles a ray reports, is the same on every run
+//! and thread count.
 //!
 //! Glass (see [`crate::render::shade::is_transparent`]) is left out of the BVH: panes are
 //! modelled as perfectly clear, so daylight and the camera both see through them.
 
 use std::time::Duration;
 
-use glam::{Mat3, UVec2, Vec2, Vec3, Vec3A};
+use glam::{Mat3, Vec2, Vec3, Vec3A};
 use obvhs::BvhBuildParams;
-use obvhs::cwbvh::CwBvh;
 use obvhs::cwbvh::builder::build_cwbvh_from_tris;
-use obvhs::cwbvh::node::CwBvhNode;
-use obvhs::ray::Ray;
 use obvhs::triangle::Triangle;
 
+use super::wide::{BoxRay, LeafTest, WideBvh, WideNode};
 use crate::scene::Scene;
+
+/// [`LeafTest`] of [`Accel::closest_hit`]: keeps the nearest hit and shrinks `tmax` to it.
+struct Closest<'a> {
+    sheared: ShearedRay,
+    tris: &'a [[Vec3A; 3]],
+    best: Option<Hit>,
+}
+
+impl LeafTest for Closest<'_> {
+    #[inline(always)]
+    fn test(&mut self, first: u32, count: u32, tmax: &mut f32) -> bool {
+        for id in first..first + count {
+            if let Some((t, b1, b2)) = self.sheared.intersect(&self.tris[id as usize], 0.0, *tmax) {
+                // `intersect` only returns t < tmax, so this hit is the closest so far.
+                self.best = Some(Hit { t, triangle: id, b1, b2 });
+                *tmax = t;
+            }
+        }
+        false
+    }
+}
+
+/// [`LeafTest`] of [`Accel::blocker`]: the first triangle hit ends the walk.
+struct AnyHit<'a> {
+    sheared: ShearedRay,
+    tris: &'a [[Vec3A; 3]],
+    blocker: Option<u32>,
+}
+
+impl LeafTest for AnyHit<'_> {
+    #[inline(always)]
+    fn test(&mut self, first: u32, count: u32, tmax: &mut f32) -> bool {
+        for id in first..first + count {
+            if self.sheared.intersect(&self.tris[id as usize], 0.0, *tmax).is_some() {
+                self.blocker = Some(id);
+                return true;
+            }
+        }
+        false
+    }
+}
 
 /// Per-triangle attributes, in BVH primitive order.
 #[derive(Clone, Copy, Debug)]
@@ -166,7 +208,8 @@ pub struct NodeLabel {
 
 /// All opaque triangles of a scene in one BVH, with what shading needs to know about each.
 pub struct Accel {
-    bvh: Option<CwBvh>,
+    /// obvhs' tree with exact `f32` child boxes ([`super::wide`]); `None` without triangles.
+    wide: Option<WideBvh>,
     /// Triangle corners in BVH primitive order.
     tris: Vec<[Vec3A; 3]>,
     attrs: Vec<TriAttr>,
@@ -258,7 +301,8 @@ impl Accel {
                 .unzip(),
             None => (Vec::new(), Vec::new()),
         };
-        Accel { bvh, tris, attrs, positions, normals, uvs, labels }
+        let wide = bvh.as_ref().map(|bvh| WideBvh::new(bvh, &tris));
+        Accel { wide, tris, attrs, positions, normals, uvs, labels }
     }
 
     /// Number of triangles in the BVH.
@@ -267,9 +311,10 @@ impl Accel {
         self.tris.len()
     }
 
-    /// The BVH, `None` for a scene without opaque triangles.
-    pub(super) fn bvh(&self) -> Option<&CwBvh> {
-        self.bvh.as_ref()
+    /// The nodes of the BVH with exact boxes (node 0 the root), `None` for a scene without
+    /// opaque triangles.
+    pub(super) fn wide_nodes(&self) -> Option<&[WideNode]> {
+        self.wide.as_ref().map(WideBvh::nodes)
     }
 
     /// Triangle corners in BVH primitive order (what a leaf's primitive ids index).
@@ -281,23 +326,12 @@ impl Accel {
     #[must_use]
     #[inline(always)]
     pub fn closest_hit(&self, origin: Vec3, direction: Vec3, tmax: f32) -> Option<Hit> {
-        let bvh = self.bvh.as_ref()?;
+        let wide = self.wide.as_ref()?;
         let direction = positive_zeros(direction);
-        let sheared = ShearedRay::new(origin, direction);
-        let mut ray = Ray::new(origin.into(), direction.into(), 0.0, tmax);
-        let mut best: Option<Hit> = None;
-        let tris = &self.tris;
-        let mut state = bvh.new_traversal(ray.direction);
-        let mut node: &CwBvhNode;
-        obvhs::traverse!(bvh, node, state, node.intersect_ray(&ray, state.oct_inv4), {
-            let id = state.primitive_id;
-            if let Some((t, b1, b2)) = sheared.intersect(&tris[id as usize], ray.tmin, ray.tmax) {
-                // `intersect` only returns t < tmax, so this hit is the closest so far.
-                best = Some(Hit { t, triangle: id, b1, b2 });
-                ray.tmax = t;
-            }
-        });
-        best
+        let mut closest = Closest { sheared: ShearedRay::new(origin, direction), tris: &self.tris, best: None };
+        let mut tmax = tmax;
+        wide.walk(&BoxRay::new(origin, direction), &mut tmax, true, &mut closest);
+        closest.best
     }
 
     /// Whether anything lies on `origin + t * direction` for `0 < t < tmax` (a shadow ray).
@@ -316,35 +350,25 @@ impl Accel {
     /// usually blocks the next one, and one triangle test answers what otherwise takes a
     /// traversal (the shadow cache of Haines and Greenberg, 1986). The hint is tried with the
     /// same watertight test and ray interval as the traversal's leaves, and any triangle of the
-    /// BVH that the ray hits before `tmax` blocks it, so a hint never hides a blocker. It can
-    /// find one the traversal misses: obvhs' box test drops a few grazing rays, such as a sun
-    /// ray leaving a wall 0.01 mm below a flat ceiling, which the ceiling triangle's own test
-    /// catches (docs/BENCHMARKS.md: on 6 evaluator frames at 1936 x 1216, 39 of 28 million
-    /// radiance values changed, every one a sun leak at a wall's top edge removed). An
+    /// BVH that the ray hits before `tmax` blocks it, so a hint never hides a blocker. Nor does
+    /// it find one the walk would miss: the walk over exact boxes is conservative
+    /// ([`super::wide`]), where obvhs' quantised box test dropped a few grazing rays (a sun ray
+    /// leaving a wall 0.01 mm below a flat ceiling) that only the hint then caught. An
     /// out-of-range hint (such as [`NO_TRIANGLE`]) is skipped.
     #[must_use]
     #[inline(always)]
     pub fn blocker(&self, origin: Vec3, direction: Vec3, tmax: f32, hint: u32) -> Option<u32> {
-        let bvh = self.bvh.as_ref()?;
+        let wide = self.wide.as_ref()?;
         let direction = positive_zeros(direction);
         let sheared = ShearedRay::new(origin, direction);
-        let ray = Ray::new(origin.into(), direction.into(), 0.0, tmax);
         let tris = &self.tris;
-        if tris.get(hint as usize).is_some_and(|tri| sheared.intersect(tri, ray.tmin, ray.tmax).is_some()) {
+        if tris.get(hint as usize).is_some_and(|tri| sheared.intersect(tri, 0.0, tmax).is_some()) {
             return Some(hint);
         }
-        let mut state = bvh.new_traversal(ray.direction);
-        let mut node: &CwBvhNode;
-        let mut blocker = None;
-        'traversal: {
-            obvhs::traverse!(bvh, node, state, node.intersect_ray(&ray, state.oct_inv4), {
-                if sheared.intersect(&tris[state.primitive_id as usize], ray.tmin, ray.tmax).is_some() {
-                    blocker = Some(state.primitive_id);
-                    break 'traversal;
-                }
-            });
-        }
-        blocker
+        let mut any = AnyHit { sheared, tris, blocker: None };
+        let mut tmax = tmax;
+        wide.walk(&BoxRay::new(origin, direction), &mut tmax, false, &mut any);
+        any.blocker
     }
 
     /// Interpolated surface at `hit` of a ray travelling along `direction`.

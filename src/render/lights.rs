@@ -49,10 +49,10 @@ const EMITTER_BOUNDS_PAD_M: f32 = 1e-3;
 const BLOCKER_SLOTS: usize = 128;
 
 /// Per light, the triangle that blocked the last shadow ray traced to it, tried first on the
-/// next one ([`Accel::blocker`] says why). A hint never hides a blocker, but it can find one
-/// that the BVH traversal misses on a grazing ray, so its content must not depend on the
-/// thread: one per tile (or per probe), never shared, started empty. What it holds is then a
-/// function of the tile alone, and frames stay the same at any thread count.
+/// next one ([`Accel::blocker`] says why). A hint changes the work, not the answer; it is
+/// still kept per tile (or per probe), never shared, started empty: what it holds is then a
+/// function of the tile alone, and frames stay the same at any thread count by construction,
+/// not only because the walk and the hint's test agree.
 pub struct Blockers {
     last: [Cell<u32>; BLOCKER_SLOTS],
 }

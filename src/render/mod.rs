@@ -5,6 +5,7 @@
 //! * [`camera`]: the pinhole camera from plain numbers, and [`camera::sensor_illuminance_lux`]
 //!   (scene luminance to sensor-plane illuminance; the sensor model takes it from there).
 //! * [`packet`]: coherent rays (a pixel tile, shadow rays to one light) traced together.
+//! * `wide` (private): the BVH as rays walk it, obvhs' tree with exact child boxes.
 //! * [`lights`]: direct illuminance from point, directional and rect lights with shadow rays.
 //! * [`shade`]: textures, materials and the one-bounce light transport estimate.
 //!
@@ -41,6 +42,7 @@ pub mod shade;
 pub mod test_util;
 mod tile;
 mod visibility_filter;
+mod wide;
 
 use glam::{Vec2, Vec3};
 use rand::Rng;

@@ -20,16 +20,12 @@
 //! closest hit is the same up to which of two triangles at exactly the same distance wins.
 
 use glam::Vec3;
-use obvhs::cwbvh::node::CwBvhNode;
 
 use super::accel::{Accel, Hit, ShearedRay, positive_zeros};
+use super::wide::{BoxRay, Child, LANES, WideNode};
 
 /// Rays per packet: an 8 x 8 pixel tile; one bit each in a `u64` mask.
 pub const PACKET_RAYS: usize = 64;
-
-/// obvhs' smallest box entry distance (`EPSILON` in its node test), kept so a packet ray
-/// enters exactly the boxes it enters alone.
-const NODE_TMIN: f32 = 0.0001;
 
 /// Relative padding of the interval bounds, so rounding in the interval products never
 /// rejects a box that a ray's own test (rounded differently) would enter.
@@ -41,6 +37,9 @@ pub struct RayPacket {
     len: usize,
     origin: [Vec3; PACKET_RAYS],
     inv_direction: [Vec3; PACKET_RAYS],
+    /// Each ray as the box test of a single ray takes it, so a packet ray enters exactly the
+    /// boxes it enters alone.
+    box_ray: [BoxRay; PACKET_RAYS],
     tmax: [f32; PACKET_RAYS],
     sheared: [ShearedRay; PACKET_RAYS],
 }
@@ -51,6 +50,7 @@ impl Default for RayPacket {
             len: 0,
             origin: [Vec3::ZERO; PACKET_RAYS],
             inv_direction: [Vec3::ZERO; PACKET_RAYS],
+            box_ray: [BoxRay::new(Vec3::ZERO, Vec3::Z); PACKET_RAYS],
             tmax: [0.0; PACKET_RAYS],
             sheared: [ShearedRay::new(Vec3::ZERO, Vec3::Z); PACKET_RAYS],
         }
@@ -93,6 +93,7 @@ impl RayPacket {
         let direction = positive_zeros(direction);
         self.origin[i] = origin;
         self.inv_direction[i] = direction.recip();
+        self.box_ray[i] = BoxRay::new(origin, direction);
         self.tmax[i] = tmax;
         self.sheared[i] = ShearedRay::new(origin, direction);
         self.len += 1;
@@ -171,7 +172,7 @@ impl PacketBounds {
     /// Whether no ray of the packet can enter the box `[lo, hi]` within its `tmax`.
     #[inline(always)]
     fn rejects(&self, lo: Vec3, hi: Vec3) -> bool {
-        let mut enter = NODE_TMIN;
+        let mut enter = 0.0f32;
         let mut exit = self.tmax;
         for axis in 0..3 {
             if !self.bounded[axis] {
@@ -206,40 +207,6 @@ fn bits(mut mask: u64) -> impl Iterator<Item = usize> {
             i
         })
     })
-}
-
-/// One visited node's children in the frame of one ray: obvhs' own arithmetic (the quantised
-/// planes times the scaled inverse direction plus the scaled origin offset).
-#[inline(always)]
-fn ray_enters(node: &CwBvhNode, child: usize, packet: &RayPacket, r: usize, tmax: f32) -> Option<f32> {
-    let inv = packet.inv_direction[r];
-    let scaled_inv = node.compute_extent() * glam::Vec3A::from(inv);
-    let scaled_origin = (glam::Vec3A::from(node.p) - glam::Vec3A::from(packet.origin[r])) * glam::Vec3A::from(inv);
-    let pick = |lo: u8, hi: u8, negative: bool| if negative { (hi as f32, lo as f32) } else { (lo as f32, hi as f32) };
-    let (x0, x1) = pick(node.child_min_x[child], node.child_max_x[child], inv.x < 0.0);
-    let (y0, y1) = pick(node.child_min_y[child], node.child_max_y[child], inv.y < 0.0);
-    let (z0, z1) = pick(node.child_min_z[child], node.child_max_z[child], inv.z < 0.0);
-    // Folded from the finite bounds with plain comparisons: a NaN plane distance (0 x inf, an
-    // axis-parallel ray on a box face) is skipped, as `f32::max` would skip it, but this
-    // compiles to one `maxss` / `minss` each instead of NaN-aware selects.
-    let larger = |acc: f32, t: f32| if t > acc { t } else { acc };
-    let smaller = |acc: f32, t: f32| if t < acc { t } else { acc };
-    let near =
-        [x0 * scaled_inv.x + scaled_origin.x, y0 * scaled_inv.y + scaled_origin.y, z0 * scaled_inv.z + scaled_origin.z]
-            .into_iter()
-            .fold(NODE_TMIN, larger);
-    let far =
-        [x1 * scaled_inv.x + scaled_origin.x, y1 * scaled_inv.y + scaled_origin.y, z1 * scaled_inv.z + scaled_origin.z]
-            .into_iter()
-            .fold(tmax, smaller);
-    (near <= far).then_some(near)
-}
-
-/// A child's world box.
-#[inline(always)]
-fn child_box(node: &CwBvhNode, child: usize) -> (Vec3, Vec3) {
-    let b = node.child_aabb(child);
-    (b.min.into(), b.max.into())
 }
 
 /// What a packet traversal does at the triangles of a leaf.
@@ -318,8 +285,8 @@ impl Accel {
         active: &mut u64,
         leaf: &mut impl LeafVisitor,
     ) {
-        let Some(bvh) = self.bvh() else { return };
-        if *active == 0 || bvh.nodes.is_empty() {
+        let Some(nodes) = self.wide_nodes() else { return };
+        if *active == 0 || nodes.is_empty() {
             return;
         }
         // (node, rays that may reach it): the mask narrows to the rays from the first one that
@@ -337,53 +304,54 @@ impl Accel {
                 bounds = PacketBounds::new(packet, *active, tmax);
                 stale = false;
             }
-            let node = &bvh.nodes[index as usize];
-            let mut inner: [(f32, u32, u64); 8] = [(0.0, 0, 0); 8];
+            let node: &WideNode = &nodes[index as usize];
+            let mut inner: [(f32, u32, u64); LANES] = [(0.0, 0, 0); LANES];
             let mut inner_count = 0;
-            for child in 0..8 {
-                if node.is_child_empty(child) {
-                    continue;
-                }
+            for lane in 0..LANES {
+                let Some(child) = node.child(lane) else { continue };
                 let first = rays.trailing_zeros() as usize;
-                if node.is_leaf(child) {
-                    let (lo, hi) = child_box(node, child);
-                    if bounds.rejects(lo, hi) {
-                        continue;
-                    }
-                    let mut reach = 0u64;
-                    for r in bits(rays) {
-                        if ray_enters(node, child, packet, r, tmax[r]).is_some() {
-                            reach |= 1u64 << r;
-                        }
-                    }
-                    if reach == 0 {
-                        continue;
-                    }
-                    let (start, count) = node.child_primitives(child);
-                    for triangle in start..start + count {
-                        leaf.visit(self, triangle as usize, reach, tmax, active);
-                    }
-                    stale = true;
-                    if *active == 0 {
-                        return;
-                    }
-                    continue;
-                }
-                let entered = match ray_enters(node, child, packet, first, tmax[first]) {
-                    Some(near) => Some((first, near)),
-                    None => {
-                        let (lo, hi) = child_box(node, child);
+                match child {
+                    Child::Leaf { first: start, count } => {
+                        let (lo, hi) = node.child_box(lane);
                         if bounds.rejects(lo, hi) {
-                            None
-                        } else {
-                            bits(rays & !(1u64 << first))
-                                .find_map(|r| ray_enters(node, child, packet, r, tmax[r]).map(|near| (r, near)))
+                            continue;
+                        }
+                        let mut reach = 0u64;
+                        for r in bits(rays) {
+                            if node.lane_enter(lane, &packet.box_ray[r], tmax[r]).is_some() {
+                                reach |= 1u64 << r;
+                            }
+                        }
+                        if reach == 0 {
+                            continue;
+                        }
+                        for triangle in start..start + count {
+                            leaf.visit(self, triangle as usize, reach, tmax, active);
+                        }
+                        stale = true;
+                        if *active == 0 {
+                            return;
                         }
                     }
-                };
-                if let Some((r, near)) = entered {
-                    inner[inner_count] = (near, node.child_node_index(child), rays & !((1u64 << r) - 1));
-                    inner_count += 1;
+                    Child::Node(child) => {
+                        let entered = match node.lane_enter(lane, &packet.box_ray[first], tmax[first]) {
+                            Some(near) => Some((first, near)),
+                            None => {
+                                let (lo, hi) = node.child_box(lane);
+                                if bounds.rejects(lo, hi) {
+                                    None
+                                } else {
+                                    bits(rays & !(1u64 << first)).find_map(|r| {
+                                        node.lane_enter(lane, &packet.box_ray[r], tmax[r]).map(|near| (r, near))
+                                    })
+                                }
+                            }
+                        };
+                        if let Some((r, near)) = entered {
+                            inner[inner_count] = (near, child, rays & !((1u64 << r) - 1));
+                            inner_count += 1;
+                        }
+                    }
                 }
             }
             // Farther children go on the stack first, so the nearest is walked next.
