@@ -176,7 +176,14 @@ impl WideNode {
         })
     }
 
+    /// The lower and upper planes of axis `axis`, one per lane.
+    #[inline(always)]
+    pub(super) fn slabs(&self, axis: usize) -> (&[f32; LANES], &[f32; LANES]) {
+        (&self.lo[axis], &self.hi[axis])
+    }
+
     /// The box of child `lane` (meaningless for an empty lane).
+    #[cfg(any(test, not(target_arch = "x86_64")))]
     #[inline(always)]
     pub(super) fn child_box(&self, lane: usize) -> (Vec3, Vec3) {
         let lo = Vec3::new(self.lo[0][lane], self.lo[1][lane], self.lo[2][lane]);
