@@ -13,13 +13,13 @@
 //!   of it that gets through, estimated from stratified jittered area samples, one shadow ray
 //!   each (soft shadows): `sum f V / sum f`, `f = cos(theta) cos(theta') / d^2`.
 
-use std::cell::Cell;
+use std::cell::{Cell, RefCell};
 use std::f32::consts::PI;
 
 use glam::Vec3;
 
 use super::accel::{Accel, NO_TRIANGLE};
-use super::packet::RayPacket;
+use super::packet::{PACKET_RAYS, RayPacket};
 use super::reach::{LightReach, LightSource};
 use super::{GroupRgb, Sampler, Strata, group_index};
 use crate::scene::{Light, LightKind, Scene};
@@ -48,6 +48,10 @@ const EMITTER_BOUNDS_PAD_M: f32 = 1e-3;
 /// [`Blockers`] slot; a house has a few dozen, and further lights are traced without a hint.
 const BLOCKER_SLOTS: usize = 128;
 
+/// Fewest deferred shadow rays to one light that [`Blockers::resolve`] traces as packets;
+/// fewer go one by one, where a hint often answers with one triangle test.
+const MIN_SHADOW_PACKET: usize = 8;
+
 /// Per light, the triangle that blocked the last shadow ray traced to it, tried first on the
 /// next one ([`Accel::blocker`] says why). A hint changes the work, not the answer; it is
 /// still kept per tile (or per probe), never shared, started empty: what it holds is then a
@@ -70,6 +74,45 @@ impl Blockers {
         Blockers::default()
     }
 
+    /// Traces the deferred shadow rays of `queue` and zeroes the `add` of every blocked one.
+    /// Runs of at least [`MIN_SHADOW_PACKET`] rays to one light go through the BVH in packets;
+    /// shorter ones one by one, with this tile's hints. The queue is sorted by light, then
+    /// tag.
+    #[inline(always)]
+    pub(crate) fn resolve(&self, accel: &Accel, queue: &mut [DeferredShadow], packet: &mut RayPacket) {
+        queue.sort_unstable_by_key(|d| (d.ray.slot, d.tag));
+        let mut start = 0;
+        while start < queue.len() {
+            let slot = queue[start].ray.slot;
+            let mut end = start + 1;
+            while end < queue.len() && queue[end].ray.slot == slot {
+                end += 1;
+            }
+            let run = &mut queue[start..end];
+            if run.len() < MIN_SHADOW_PACKET {
+                for d in run.iter_mut() {
+                    if self.occluded(accel, slot as usize, d.ray.origin, d.ray.dir, d.ray.tmax) {
+                        d.add = Vec3::ZERO;
+                    }
+                }
+            } else {
+                for chunk in run.chunks_mut(PACKET_RAYS) {
+                    packet.clear();
+                    for d in chunk.iter() {
+                        packet.push(d.ray.origin, d.ray.dir, d.ray.tmax);
+                    }
+                    let blocked = accel.occluded_packet(packet);
+                    for (r, d) in chunk.iter_mut().enumerate() {
+                        if blocked >> r & 1 == 1 {
+                            d.add = Vec3::ZERO;
+                        }
+                    }
+                }
+            }
+            start = end;
+        }
+    }
+
     /// Whether the shadow ray to light `slot` is blocked, remembering what blocked it.
     #[inline(always)]
     fn occluded(&self, accel: &Accel, slot: usize, origin: Vec3, dir: Vec3, tmax: f32) -> bool {
@@ -82,6 +125,34 @@ impl Blockers {
             None => false,
         }
     }
+}
+
+/// A shadow ray to one light: from `origin` along the unit `dir`, blocked by anything before
+/// `tmax`; `slot` is the light's [`Blockers`] slot.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct ShadowRay {
+    pub slot: u32,
+    pub origin: Vec3,
+    pub dir: Vec3,
+    pub tmax: f32,
+}
+
+/// A shadow ray to a point or directional light that [`LightSet::direct_split`] left for its
+/// caller to trace: what the light adds to light group `group` where the ray is not blocked.
+///
+/// Why: from a tile's camera-ray hits, the rays to one such light are as coherent as the
+/// camera rays, and a packet traces them several times faster than one by one (docs/
+/// BENCHMARKS.md). Rect-light samples stay one at a time: spread over windows, they make
+/// small, scattered packets that were slower.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct DeferredShadow {
+    pub ray: ShadowRay,
+    pub group: usize,
+    /// Irradiance (lux per channel) from `direct_split`; its caller may rescale it (to the
+    /// radiance it adds) before the ray is traced.
+    pub add: Vec3,
+    /// The caller's label (the pixel of a tile).
+    pub tag: u32,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -314,7 +385,7 @@ impl LightSet {
         blockers: &Blockers,
     ) -> GroupRgb {
         let (other, rects) =
-            self.direct_split(accel, point, ng, ns, rect_samples, rect_strata, cull, sampler, blockers, false);
+            self.direct_split(accel, point, ng, ns, rect_samples, rect_strata, cull, sampler, blockers, false, None);
         [other[0] + rects.visible[0], other[1] + rects.visible[1]]
     }
 
@@ -322,10 +393,15 @@ impl LightSet {
     /// lights' [`RectShare`] (their estimated light and, with `unshadowed` set, the exact light
     /// they would give unshadowed, which costs the closed form of every rect light in reach,
     /// the fully shadowed and culled ones too). The draws are those of `direct`.
+    ///
+    /// With `defer`, the shadow rays to point and directional lights are not traced: each goes
+    /// into the queue with the irradiance it adds if unblocked, and the first part of the
+    /// answer leaves those lights out (the caller traces the queue in packets, as
+    /// [`DeferredShadow`] says).
     #[allow(clippy::too_many_arguments)]
     #[must_use]
     #[inline(always)]
-    pub fn direct_split(
+    pub(crate) fn direct_split(
         &self,
         accel: &Accel,
         point: Vec3,
@@ -337,6 +413,7 @@ impl LightSet {
         sampler: &mut Sampler,
         blockers: &Blockers,
         unshadowed: bool,
+        defer: Option<&RefCell<Vec<DeferredShadow>>>,
     ) -> (GroupRgb, RectShare) {
         // Only the lights that can reach the point's room ([`super::reach`]): a light left out
         // of the list is blocked by walls wherever it is sampled, so it adds nothing but cost
@@ -377,17 +454,26 @@ impl LightSet {
             let dist2 = d.length_squared();
             let dist = dist2.sqrt();
             let dir = d / dist;
-            if !blockers.occluded(accel, i as usize, origin, dir, dist - 2.0 * eps) {
-                e[light.group] += light.rgb_cd * (weight * ns.dot(dir) / dist2);
+            let add = light.rgb_cd * (weight * ns.dot(dir) / dist2);
+            let ray = ShadowRay { slot: i, origin, dir, tmax: dist - 2.0 * eps };
+            if let Some(queue) = defer {
+                queue.borrow_mut().push(DeferredShadow { ray, group: light.group, add, tag: 0 });
+            } else if !blockers.occluded(accel, ray.slot as usize, origin, dir, ray.tmax) {
+                e[light.group] += add;
             }
         }
         let all_points = self.points.len();
         for (i, light) in self.directionals.iter().enumerate() {
             let slot = all_points + i;
-            if directional_importance(light, ng, ns) > 0.0
-                && !blockers.occluded(accel, slot, origin, light.to_light, f32::INFINITY)
-            {
-                e[light.group] += light.rgb_lux * ns.dot(light.to_light);
+            if directional_importance(light, ng, ns) <= 0.0 {
+                continue;
+            }
+            let add = light.rgb_lux * ns.dot(light.to_light);
+            let ray = ShadowRay { slot: slot as u32, origin, dir: light.to_light, tmax: f32::INFINITY };
+            if let Some(queue) = defer {
+                queue.borrow_mut().push(DeferredShadow { ray, group: light.group, add, tag: 0 });
+            } else if !blockers.occluded(accel, slot, origin, light.to_light, f32::INFINITY) {
+                e[light.group] += add;
             }
         }
         let count = rect_samples.max(1);

@@ -548,6 +548,10 @@ pub struct Renderer<'a> {
     settings: RenderSettings,
     /// Which build of the tile loop runs ([`crate::simd`]; same frame either way).
     dispatch: crate::simd::Dispatch,
+    /// Whether several samples per pixel trace their hits' shadow rays to point and
+    /// directional lights in packets ([`lights::DeferredShadow`]); off only in a test that
+    /// compares the two ways.
+    defer_shadows: bool,
 }
 
 impl<'a> Renderer<'a> {
@@ -560,6 +564,7 @@ impl<'a> Renderer<'a> {
             lights: LightSet::for_scene(scene, [1.0, 1.0]),
             settings,
             dispatch: crate::simd::Dispatch::current(),
+            defer_shadows: true,
         }
     }
 
@@ -586,6 +591,7 @@ impl<'a> Renderer<'a> {
             settings: &self.settings,
             blockers,
             pixel_seed,
+            deferred: None,
         }
     }
 

@@ -358,6 +358,7 @@ impl Accel {
     /// Bit `i` set where ray `i` of `packet` is blocked (a shadow ray); the same answers as
     /// [`Accel::occluded`] ray by ray.
     #[must_use]
+    #[inline(always)]
     pub fn occluded_packet(&self, packet: &RayPacket) -> u64 {
         let mut tmax = packet.tmax;
         let all = packet.all();

@@ -23,12 +23,13 @@
 //!   (point, directional) give no highlight on metals; glass is perfectly clear (left out of the
 //!   BVH) and mirrors see rect emitters and diffuse surfaces lit directly.
 
+use std::cell::RefCell;
 use std::sync::OnceLock;
 
 use glam::{Vec2, Vec3};
 
 use super::accel::{Accel, Hit, SurfacePoint};
-use super::lights::{Blockers, LightSet, RectShare, luminance, ray_epsilon};
+use super::lights::{Blockers, DeferredShadow, LightSet, RectShare, luminance, ray_epsilon};
 use super::{GroupRgb, RenderSettings, Sampler, Strata};
 use crate::scene::{Material, Scene, Texture};
 
@@ -165,6 +166,10 @@ pub(crate) struct Tracer<'a> {
     pub blockers: &'a Blockers,
     /// Seed of the pixels' random streams in this view ([`super::Renderer::pixel_seed`]).
     pub pixel_seed: u64,
+    /// Where a camera-ray hit's shadow rays to point and directional lights go instead of
+    /// being traced ([`DeferredShadow`]), with the radiance each adds towards the camera;
+    /// `None`: traced at once.
+    pub deferred: Option<&'a RefCell<Vec<DeferredShadow>>>,
 }
 
 /// A unit vector in the hemisphere about `n`, cosine-distributed, from `(u1, u2)` in [0, 1)^2.
@@ -275,7 +280,20 @@ impl Tracer<'_> {
             Primary::Emitter(l) => l,
             Primary::Surface(s) => {
                 let e = if s.response.diffuse != Vec3::ZERO {
-                    Some(self.irradiance(&s.surface, strata, rect_strata, sampler))
+                    // A `match`, not `map_or` with a closure (see above).
+                    let mark = match self.deferred {
+                        Some(queue) => queue.borrow().len(),
+                        None => 0,
+                    };
+                    let e = self.irradiance(&s.surface, strata, rect_strata, sampler);
+                    // What the deferred lights add is radiance towards the camera, as `e` gives
+                    // in `surface_radiance`.
+                    if let Some(queue) = self.deferred {
+                        for d in &mut queue.borrow_mut()[mark..] {
+                            d.add *= s.response.diffuse * std::f32::consts::FRAC_1_PI;
+                        }
+                    }
+                    Some(e)
                 } else {
                     None
                 };
@@ -348,6 +366,7 @@ impl Tracer<'_> {
             sampler,
             self.blockers,
             unshadowed,
+            self.deferred,
         );
         let indirect = self.indirect_irradiance(p, ng, ns, self.settings.indirect_rays, strata, sampler);
         (add(add(other, rects.visible), indirect), rects)

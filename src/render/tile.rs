@@ -4,15 +4,20 @@
 //! about twice the speed of one ray at a time, docs/BENCHMARKS.md): the centre rays, then, with
 //! `n x n` samples per pixel, one packet per sample. Each pixel is shaded as it would be alone,
 //! from its own random stream in its own order, so a tiled frame is bit for bit the frame a
-//! pixel-by-pixel trace gives, at any thread count. Shadow rays stay one at a time: traced as
-//! packets per light and tile they were slower on real frames (rect-light samples and culled
-//! lights give small, spread packets; measured in docs/BENCHMARKS.md).
+//! pixel-by-pixel trace gives, at any thread count. With several samples per pixel, the shadow
+//! rays from a sample's hits to each point or directional light are traced together, as
+//! packets, once the tile's pixels have shaded that sample ([`super::lights::DeferredShadow`]);
+//! the sums then differ from shading each pixel alone only in their order. Other shadow rays
+//! (rect-light samples, bounces, anchors) stay one at a time: traced as packets per light and
+//! tile they were slower on real frames (small, spread packets; docs/BENCHMARKS.md).
 //!
 //! Each band of tiles runs in one of two builds of the same source ([`crate::simd`]): an AVX2 +
 //! FMA clone where the CPU has both, else the baseline; the frame is the same bit for bit
 //! (`SCENE_GEN_NO_SIMD=1` forces the baseline). The call tree under [`Renderer::trace_band`] is
 //! `#[inline(always)]` down to the triangle test, since a function left out of line is compiled
 //! once, for the baseline, and closures called from both builds are avoided for the same reason.
+
+use std::cell::RefCell;
 
 use glam::Vec3;
 use rayon::prelude::*;
@@ -398,6 +403,11 @@ impl Renderer<'_> {
         let mut sums = vec![[Vec3::ZERO; 2]; cells.len()];
         let mut hits: [Option<Hit>; PACKET_RAYS] = [None; PACKET_RAYS];
         let mut emitters = Vec::new();
+        // The hits' shadow rays to point and directional lights, traced per sample in packets
+        // (one per light) once every pixel has shaded that sample.
+        let queue = RefCell::new(Vec::new());
+        let deferring = Tracer { deferred: Some(&queue), ..*tracer };
+        let tracer = if self.defer_shadows { &deferring } else { tracer };
         for j in 0..n {
             for i in 0..n {
                 packet.clear();
@@ -414,9 +424,18 @@ impl Renderer<'_> {
                     let first = j * n + i;
                     let strata = Strata { first, stride: n * n, total: bounce_total, rotation: *rotation };
                     let rect = Strata { first, stride: n * n, total: rect_total, rotation: *rect_rotation };
+                    let mark = queue.borrow().len();
                     let l = tracer.camera_ray(origin, dirs[k], hits[k], &emitters, strata, rect, sampler);
                     sums[k][0] += l[0];
                     sums[k][1] += l[1];
+                    for d in &mut queue.borrow_mut()[mark..] {
+                        d.tag = k as u32;
+                    }
+                }
+                let mut deferred = queue.borrow_mut();
+                tracer.blockers.resolve(&self.accel, &mut deferred, packet);
+                for d in deferred.drain(..) {
+                    sums[d.tag as usize][d.group] += d.add;
                 }
             }
         }
@@ -584,6 +603,45 @@ mod tests {
         let house = crate::house::walked_house(&library, 0, &params).unwrap();
         let camera = resolved.camera_at(&house.walk.poses[house.walk.poses.len() / 2]);
         (house.scene, camera)
+    }
+
+    /// Shadow rays to point lights and the sun traced later, in packets, give the frame that
+    /// tracing each at once gives, up to the order of the sums (a few ulps).
+    #[test]
+    fn deferred_shadow_rays_give_the_frame_of_immediate_ones() {
+        let (scene, camera) = house_view();
+        let direct = RenderSettings {
+            samples_per_axis: 2,
+            rect_samples_per_axis: 1,
+            indirect_rays: 0,
+            specular: false,
+            light_cull: 0.0,
+            ..RenderSettings::preview()
+        };
+        for (name, settings) in [("direct", direct), ("standard", RenderSettings::standard())] {
+            let render = |defer| {
+                let mut renderer = Renderer::new(&scene, settings);
+                renderer.defer_shadows = defer;
+                renderer.render(&camera).unwrap()
+            };
+            let (deferred, immediate) = (render(true), render(false));
+            assert_eq!(deferred.depth_m, immediate.depth_m, "{name}");
+            assert_eq!(deferred.instance_id, immediate.instance_id, "{name}");
+            let pairs = deferred
+                .day_nit
+                .iter()
+                .chain(&deferred.night_nit)
+                .zip(immediate.day_nit.iter().chain(&immediate.night_nit));
+            let (mut lit, mut worst) = (0, 0.0f32);
+            for (a, b) in pairs {
+                for (x, y) in a.iter().zip(b) {
+                    worst = worst.max((x - y).abs() / y.abs().max(1e-3));
+                    lit += usize::from(*y > 0.0);
+                }
+            }
+            assert!(lit > deferred.day_nit.len(), "{name}: a lit frame ({lit} lit values)");
+            assert!(worst < 1e-5, "{name}: largest relative difference {worst}");
+        }
     }
 
     /// Every job of the tile loop (labels, one centre ray, decoupled anchors and interpolation,
