@@ -371,43 +371,13 @@ fn fill(bvh: &CwBvh, triangles: &[[Vec3A; 3]], index: usize, nodes: &mut [WideNo
 mod tests {
     use super::*;
     use crate::render::accel::{Accel, ShearedRay};
-    use crate::render::test_util::{add_material, add_mesh, empty_scene, quad};
-    use crate::scene::Semantic;
-    use glam::Mat4;
+    use crate::render::test_util::room_of_boxes;
     use proptest::prelude::*;
 
-    /// A 6 x 5 x 3 m box room (flat walls, floor and ceiling: zero-thickness boxes) with
-    /// shelves and screens inside.
+    /// A closed 6 x 5 x 3 m room (flat floor and ceiling: zero-thickness boxes) with 36 boxes
+    /// on its floor.
     fn room() -> Accel {
-        let mut scene = empty_scene();
-        let m = add_material(&mut scene, "paint_0", [0.5; 3], 0.0, 1.0);
-        let faces = [
-            (Vec3::new(3.0, 2.5, 0.0), Vec3::X * 6.0, Vec3::Y * 5.0),
-            (Vec3::new(3.0, 2.5, 3.0), Vec3::X * 6.0, Vec3::Y * 5.0),
-            (Vec3::new(3.0, 0.0, 1.5), Vec3::X * 6.0, Vec3::Z * 3.0),
-            (Vec3::new(3.0, 5.0, 1.5), Vec3::X * 6.0, Vec3::Z * 3.0),
-            (Vec3::new(0.0, 2.5, 1.5), Vec3::Y * 5.0, Vec3::Z * 3.0),
-            (Vec3::new(6.0, 2.5, 1.5), Vec3::Y * 5.0, Vec3::Z * 3.0),
-        ];
-        for (centre, u, v) in faces {
-            add_mesh(&mut scene, quad(centre, u, v, m), Mat4::IDENTITY, Semantic::Decor { room: 0 });
-        }
-        for k in 0..60 {
-            let c = Vec3::new(0.4 + (k % 10) as f32 * 0.55, 0.4 + (k / 10) as f32 * 0.75, 0.3 + (k % 7) as f32 * 0.4);
-            add_mesh(
-                &mut scene,
-                quad(c, Vec3::X * 0.35, Vec3::Y * 0.3, m),
-                Mat4::IDENTITY,
-                Semantic::Decor { room: 0 },
-            );
-            add_mesh(
-                &mut scene,
-                quad(c, Vec3::Y * 0.3, Vec3::Z * 0.25, m),
-                Mat4::IDENTITY,
-                Semantic::Decor { room: 0 },
-            );
-        }
-        Accel::build(&scene)
+        Accel::build(&room_of_boxes(Vec3::new(6.0, 5.0, 3.0), 6))
     }
 
     /// The closest hit over every triangle, by the same watertight test: what the walk must find.
@@ -426,7 +396,14 @@ mod tests {
     fn check(accel: &Accel, origin: Vec3, dir: Vec3) -> Result<(), TestCaseError> {
         let expected = brute_force(accel, origin, dir, f32::INFINITY);
         let found = accel.closest_hit(origin, dir, f32::INFINITY).map(|h| h.t);
-        prop_assert_eq!(found.map(f32::to_bits), expected.map(f32::to_bits), "closest, from {} along {}", origin, dir);
+        // The same distance up to the triangle test's own rounding (about 1e-7 of the room's
+        // size): where two coplanar faces meet the ray (a box's bottom on the floor) either may
+        // be reported; a lost surface would leave a gap of centimetres to metres.
+        let close = match (found, expected) {
+            (Some(f), Some(e)) => (f - e).abs() <= 1e-5,
+            (f, e) => f == e,
+        };
+        prop_assert!(close, "closest {:?}, every triangle {:?}: from {} along {}", found, expected, origin, dir);
         for tmax in [0.5f32, 2.0] {
             let blocked = brute_force(accel, origin, dir, tmax).is_some();
             prop_assert_eq!(accel.occluded(origin, dir, tmax), blocked, "shadow ray of {} m", tmax);
@@ -445,8 +422,8 @@ mod tests {
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(256))]
 
-        /// The walk finds the closest hit that testing every triangle finds (the same distance,
-        /// bit for bit) and the same shadow answers, for rays in any direction.
+        /// The walk finds the closest hit that testing every triangle finds and the same shadow
+        /// answers, for rays in any direction.
         #[test]
         fn the_walk_finds_what_testing_every_triangle_finds(
             x in 0.05f32..5.95, y in 0.05f32..4.95, z in 0.05f32..2.95,
