@@ -9,9 +9,10 @@
 //! rounded-out boxes are looser than the geometry. A house's BVH is a few hundred kilobytes
 //! either way, so the tree is kept (obvhs builds it, with the topology and leaf order it chose)
 //! and each child's box is recomputed exactly from its triangles, bottom up, into structure-of-
-//! arrays planes: `lo[axis][lane]`, `hi[axis][lane]`. The lane loops in [`WideNode::enter`] are
-//! plain Rust that LLVM turns into SSE (baseline) or AVX2 code (the dispatched clone,
-//! [`crate::simd`]), with the same IEEE results in both.
+//! arrays planes: `lo[axis][lane]`, `hi[axis][lane]`. [`WideNode::enter`] tests them with SSE,
+//! four lanes at a time: SSE is in the x86-64 baseline, so both builds of the tile loop
+//! ([`crate::simd`]) run the same instructions and get the same IEEE results, and
+//! [`WideNode::lane_enter`] repeats the arithmetic for one lane, bit for bit.
 //!
 //! Robustness: a ray that hits a triangle must enter every box above it. The boxes are exact
 //! and the slab distances are widened by Ize's bound ("Robust BVH Ray Traversal", JCGT 2(2),
@@ -25,7 +26,7 @@ use obvhs::cwbvh::CwBvh;
 pub(super) const LANES: usize = 8;
 
 /// `1 + 2 gamma(3)` with `gamma(n) = n u / (1 - n u)`, `u = 2^-24`: Ize's factor for the far
-/// slab distance, rounded up.
+/// slab distance, plus one ulp for the rounding of the product with it.
 const FAR_SCALE: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5) + f32::EPSILON;
 
 /// A leaf child's `count` is its number of triangles (1..); an inner child's is 0.
