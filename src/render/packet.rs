@@ -35,10 +35,8 @@ const INTERVAL_PAD: f32 = 1e-4;
 #[derive(Clone)]
 pub struct RayPacket {
     len: usize,
-    origin: [Vec3; PACKET_RAYS],
-    inv_direction: [Vec3; PACKET_RAYS],
-    /// Each ray as the box test of a single ray takes it, so a packet ray enters exactly the
-    /// boxes it enters alone.
+    /// Each ray's origin and reciprocal direction as the box test of a single ray takes them,
+    /// so a packet ray enters exactly the boxes it enters alone.
     box_ray: [BoxRay; PACKET_RAYS],
     tmax: [f32; PACKET_RAYS],
     sheared: [ShearedRay; PACKET_RAYS],
@@ -48,8 +46,6 @@ impl Default for RayPacket {
     fn default() -> Self {
         RayPacket {
             len: 0,
-            origin: [Vec3::ZERO; PACKET_RAYS],
-            inv_direction: [Vec3::ZERO; PACKET_RAYS],
             box_ray: [BoxRay::new(Vec3::ZERO, Vec3::Z); PACKET_RAYS],
             tmax: [0.0; PACKET_RAYS],
             sheared: [ShearedRay::new(Vec3::ZERO, Vec3::Z); PACKET_RAYS],
@@ -91,8 +87,6 @@ impl RayPacket {
         assert!(self.len < PACKET_RAYS, "a ray packet holds at most {PACKET_RAYS} rays");
         let i = self.len;
         let direction = positive_zeros(direction);
-        self.origin[i] = origin;
-        self.inv_direction[i] = direction.recip();
         self.box_ray[i] = BoxRay::new(origin, direction);
         self.tmax[i] = tmax;
         self.sheared[i] = ShearedRay::new(origin, direction);
@@ -156,10 +150,11 @@ impl PacketBounds {
             tmax: 0.0,
         };
         for r in bits(rays) {
-            b.origin_min = b.origin_min.min(packet.origin[r]);
-            b.origin_max = b.origin_max.max(packet.origin[r]);
-            b.inv_min = b.inv_min.min(packet.inv_direction[r]);
-            b.inv_max = b.inv_max.max(packet.inv_direction[r]);
+            let ray = &packet.box_ray[r];
+            b.origin_min = b.origin_min.min(ray.origin());
+            b.origin_max = b.origin_max.max(ray.origin());
+            b.inv_min = b.inv_min.min(ray.inv_direction());
+            b.inv_max = b.inv_max.max(ray.inv_direction());
             b.tmax = b.tmax.max(tmax[r]);
         }
         for axis in 0..3 {

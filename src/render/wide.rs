@@ -67,6 +67,18 @@ impl BoxRay {
         let inv = direction.recip();
         BoxRay { origin: origin.to_array(), inv: inv.to_array(), negative: [inv.x < 0.0, inv.y < 0.0, inv.z < 0.0] }
     }
+
+    /// The ray's origin.
+    #[inline(always)]
+    pub(super) fn origin(&self) -> Vec3 {
+        Vec3::from_array(self.origin)
+    }
+
+    /// The ray's reciprocal direction (`+inf` for a zero component).
+    #[inline(always)]
+    pub(super) fn inv_direction(&self) -> Vec3 {
+        Vec3::from_array(self.inv)
+    }
 }
 
 /// What a traversal step found in a child: a node to descend into or triangles to test.
