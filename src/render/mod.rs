@@ -235,6 +235,10 @@ pub struct Sampler {
 /// [`crate::rng::fnv1a64`] of the label of the per-pixel streams, `"render/pixel"`.
 pub(crate) const PIXEL_STREAM: u64 = crate::rng::fnv1a64(b"render/pixel");
 
+/// [`crate::rng::fnv1a64`] of `"render/tile"`: the stream of a sampled tile's sub-pixel jitter
+/// and strata rotations, keyed by the tile's first pixel.
+pub(crate) const TILE_STREAM: u64 = crate::rng::fnv1a64(b"render/tile");
+
 impl Sampler {
     /// The stream of `key` (a pixel index, a probe hash) under `seed` and `label`.
     #[must_use]
