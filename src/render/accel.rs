@@ -149,6 +149,13 @@ impl ShearedRay {
         }
     }
 
+    /// The origin, the axis permutation `(kx, ky, kz)` and the shear `(Sx, Sy, Sz)`: for the
+    /// four-ray test ([`super::quad`]), which must run this test's arithmetic.
+    #[inline(always)]
+    pub(super) fn parts(&self) -> (Vec3A, [usize; 3], Vec3) {
+        (self.origin, self.k, self.shear)
+    }
+
     /// Intersects the triangle `tri` (both sides); returns `(t, b1, b2)` for `tmin < t < tmax`.
     /// Always inlined: it runs inside the traversal loop for every candidate triangle.
     #[inline(always)]

@@ -36,6 +36,7 @@ pub mod accel;
 pub mod camera;
 pub mod lights;
 pub mod packet;
+mod quad;
 mod reach;
 mod refine;
 pub mod shade;

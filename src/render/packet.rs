@@ -14,14 +14,16 @@
 //! 3. otherwise the remaining rays are tested until one hits.
 //!
 //! Leaf boxes are tested against every ray, and only the rays that reach a leaf test its
-//! triangles, with the same watertight test as single rays ([`ShearedRay::intersect`]) and the
-//! same per-ray box arithmetic as obvhs' node test. A ray in a packet therefore tests a
+//! triangles, with the same watertight test as single rays ([`ShearedRay::intersect`], four
+//! rays at a time where they share its axis permutation: [`super::quad`], the same arithmetic
+//! per lane) and the same per-ray box arithmetic as the single-ray walk. A ray in a packet therefore tests a
 //! superset of the triangles it would test alone: an occlusion answer is the same, and a
 //! closest hit is the same up to which of two triangles at exactly the same distance wins.
 
 use glam::Vec3;
 
 use super::accel::{Accel, Hit, ShearedRay, positive_zeros};
+use super::quad::QuadRays;
 use super::wide::{BoxRay, Child, LANES, WideNode};
 
 /// Rays per packet: an 8 x 8 pixel tile; one bit each in a `u64` mask.
@@ -40,6 +42,8 @@ pub struct RayPacket {
     box_ray: [BoxRay; PACKET_RAYS],
     tmax: [f32; PACKET_RAYS],
     sheared: [ShearedRay; PACKET_RAYS],
+    /// The same sheared rays four to a quad, for the four-ray triangle test.
+    quads: QuadRays,
 }
 
 impl Default for RayPacket {
@@ -49,6 +53,7 @@ impl Default for RayPacket {
             box_ray: [BoxRay::new(Vec3::ZERO, Vec3::Z); PACKET_RAYS],
             tmax: [0.0; PACKET_RAYS],
             sheared: [ShearedRay::new(Vec3::ZERO, Vec3::Z); PACKET_RAYS],
+            quads: QuadRays::default(),
         }
     }
 }
@@ -90,6 +95,7 @@ impl RayPacket {
         self.box_ray[i] = BoxRay::new(origin, direction);
         self.tmax[i] = tmax;
         self.sheared[i] = ShearedRay::new(origin, direction);
+        self.quads.set(i, &self.sheared[i]);
         self.len += 1;
         i
     }
@@ -162,6 +168,17 @@ impl PacketBounds {
             b.bounded[axis] = lo.is_finite() && hi.is_finite() && (lo > 0.0 || hi < 0.0);
         }
         b
+    }
+
+    /// Sets the far end of the interval to the largest `tmax` of `rays`: all a leaf changes
+    /// when it shortens rays but removes none (closest hits), so the origin and direction
+    /// ranges stay.
+    #[inline(always)]
+    fn refresh_tmax(&mut self, rays: u64, tmax: &[f32; PACKET_RAYS]) {
+        self.tmax = 0.0;
+        for r in bits(rays) {
+            self.tmax = self.tmax.max(tmax[r]);
+        }
     }
 
     /// Whether no ray of the packet can enter the box `[lo, hi]` within its `tmax`.
@@ -299,13 +316,28 @@ impl LeafVisitor for ClosestHits<'_> {
     fn visit(&mut self, accel: &Accel, triangle: usize, rays: u64, tmax: &mut [f32; PACKET_RAYS], _: &mut u64) -> bool {
         let tri = &accel.triangles()[triangle];
         let mut changed = false;
-        for r in bits(rays) {
-            if let Some((t, b1, b2)) = self.packet.sheared[r].intersect(tri, 0.0, tmax[r]) {
-                self.hits[r] = Some(Hit { t, triangle: triangle as u32, b1, b2 });
-                tmax[r] = t;
-                changed = true;
+        let mut record = |r: usize, (t, b1, b2): (f32, f32, f32), tmax: &mut [f32; PACKET_RAYS]| {
+            self.hits[r] = Some(Hit { t, triangle: triangle as u32, b1, b2 });
+            tmax[r] = t;
+            changed = true;
+        };
+        for_each_quad(rays, |quad, lanes| {
+            let one_by_one = if self.packet.quads.is_shared(quad) {
+                let found = self.packet.quads.intersect(quad, lanes, tri, 0.0, tmax);
+                for lane in bits(u64::from(found.hit)) {
+                    record(quad * 4 + lane, (found.t[lane], found.b1[lane], found.b2[lane]), tmax);
+                }
+                found.retry
+            } else {
+                lanes
+            };
+            for lane in bits(u64::from(one_by_one)) {
+                let r = quad * 4 + lane;
+                if let Some(hit) = self.packet.sheared[r].intersect(tri, 0.0, tmax[r]) {
+                    record(r, hit, tmax);
+                }
             }
-        }
+        });
         changed
     }
 }
@@ -326,12 +358,34 @@ impl LeafVisitor for AnyHits<'_> {
     ) -> bool {
         let tri = &accel.triangles()[triangle];
         let before = *active;
-        for r in bits(rays & *active) {
-            if self.packet.sheared[r].intersect(tri, 0.0, tmax[r]).is_some() {
-                *active &= !(1u64 << r);
+        for_each_quad(rays & *active, |quad, lanes| {
+            let (mut blocked, one_by_one) = if self.packet.quads.is_shared(quad) {
+                let found = self.packet.quads.intersect(quad, lanes, tri, 0.0, tmax);
+                (found.hit, found.retry)
+            } else {
+                (0, lanes)
+            };
+            for lane in bits(u64::from(one_by_one)) {
+                let r = quad * 4 + lane;
+                if self.packet.sheared[r].intersect(tri, 0.0, tmax[r]).is_some() {
+                    blocked |= 1 << lane;
+                }
             }
-        }
+            *active &= !(u64::from(blocked) << (quad * 4));
+        });
         *active != before
+    }
+}
+
+/// Calls `f(quad, lanes)` for each quad of four rays with a ray in `rays`, `lanes` its rays'
+/// bits (0..4).
+#[inline(always)]
+fn for_each_quad(rays: u64, mut f: impl FnMut(usize, u32)) {
+    let mut rest = rays;
+    while rest != 0 {
+        let quad = rest.trailing_zeros() as usize / 4;
+        f(quad, ((rays >> (quad * 4)) & 0xF) as u32);
+        rest &= !(0xFu64 << (quad * 4));
     }
 }
 
@@ -380,6 +434,9 @@ impl Accel {
         let mut stack: Vec<(u32, u64)> = Vec::with_capacity(64);
         stack.push((0, *active));
         let mut bounds = PacketBounds::new(packet, *active, tmax);
+        // The rays `bounds` was built over: while they are all still active, a stale bound
+        // needs only its far end refreshed.
+        let mut bounded = *active;
         let mut stale = false;
         while let Some((index, rays)) = stack.pop() {
             let rays = rays & *active;
@@ -387,7 +444,12 @@ impl Accel {
                 continue;
             }
             if stale {
-                bounds = PacketBounds::new(packet, *active, tmax);
+                if *active == bounded {
+                    bounds.refresh_tmax(bounded, tmax);
+                } else {
+                    bounds = PacketBounds::new(packet, *active, tmax);
+                    bounded = *active;
+                }
                 stale = false;
             }
             let node: &WideNode = &nodes[index as usize];

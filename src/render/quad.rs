@@ -1,0 +1,311 @@
+//! Four rays of a packet against one triangle at once: the watertight test of
+//! [`ShearedRay::intersect`] with the rays in SSE lanes.
+//!
+//! The test permutes each ray's axes so that its dominant direction comes last; four rays that
+//! share that permutation (a quad whose rays all run mostly along one axis, which neighbouring
+//! camera rays, and shadow rays from neighbouring points to one light, almost always do) see
+//! the triangle's corners in the same order, so each corner coordinate is one broadcast value
+//! and every other step is lane-wise. Each lane runs the scalar test's operations in its order,
+//! without fused multiply-adds, so its answers are the scalar test's bit for bit. A lane whose
+//! edge functions come out exactly zero needs the scalar test's `f64` fallback and is handed
+//! back for it ([`QuadHits::retry`]); a quad whose rays differ in permutation is tested ray by
+//! ray by the caller.
+
+use glam::{Vec3, Vec3A};
+
+use super::accel::ShearedRay;
+use super::packet::PACKET_RAYS;
+
+/// Quads in a packet.
+const QUADS: usize = PACKET_RAYS / 4;
+
+/// The sheared rays of a packet in structure of arrays, four to a quad.
+#[derive(Clone)]
+pub(super) struct QuadRays {
+    /// Per ray, its origin's coordinates in its permuted order (`kx`, `ky`, `kz`).
+    origin: [[f32; PACKET_RAYS]; 3],
+    /// Per ray, the shear `(Sx, Sy, Sz)`.
+    shear: [[f32; PACKET_RAYS]; 3],
+    /// The permutation of the first ray of each quad, packed by [`pack`].
+    k: [u8; QUADS],
+    /// Bit `q`: every ray pushed to quad `q` has the permutation `k[q]`.
+    shared: u16,
+}
+
+/// What [`QuadRays::intersect`] found for the lanes it was asked about.
+pub(super) struct QuadHits {
+    /// Lanes (bits 0..4) whose ray hits the triangle within its interval.
+    pub hit: u32,
+    /// Lanes the scalar test must decide (an edge function exactly zero in `f32`).
+    pub retry: u32,
+    pub t: [f32; 4],
+    pub b1: [f32; 4],
+    pub b2: [f32; 4],
+}
+
+/// An axis permutation in one byte, two bits per index (a compare of three `usize`s per pushed
+/// ray was a fifth of a shadow packet's time).
+#[inline(always)]
+fn pack([kx, ky, kz]: [usize; 3]) -> u8 {
+    (kx | ky << 2 | kz << 4) as u8
+}
+
+#[inline(always)]
+fn unpack(k: u8) -> [usize; 3] {
+    [usize::from(k & 3), usize::from(k >> 2 & 3), usize::from(k >> 4 & 3)]
+}
+
+impl Default for QuadRays {
+    fn default() -> Self {
+        QuadRays {
+            origin: [[0.0; PACKET_RAYS]; 3],
+            shear: [[0.0; PACKET_RAYS]; 3],
+            k: [pack([0, 1, 2]); QUADS],
+            shared: 0,
+        }
+    }
+}
+
+impl QuadRays {
+    /// Stores `ray` as ray `index` of the packet; rays are pushed in index order from 0.
+    #[inline(always)]
+    pub(super) fn set(&mut self, index: usize, ray: &ShearedRay) {
+        let (origin, k, shear): (Vec3A, [usize; 3], Vec3) = ray.parts();
+        for axis in 0..3 {
+            self.origin[axis][index] = origin[k[axis]];
+            self.shear[axis][index] = shear[axis];
+        }
+        let (quad, bit, k) = (index / 4, 1u16 << (index / 4), pack(k));
+        if index % 4 == 0 {
+            self.k[quad] = k;
+            self.shared |= bit;
+        } else if self.k[quad] != k {
+            self.shared &= !bit;
+        }
+    }
+
+    /// Whether the rays of quad `quad` share one permutation (else test them one by one).
+    #[inline(always)]
+    pub(super) fn is_shared(&self, quad: usize) -> bool {
+        self.shared & (1 << quad) != 0
+    }
+
+    /// Lanes `lanes` (bits 0..4) of quad `quad`, which must be [shared](QuadRays::is_shared),
+    /// against triangle `tri`, each within `(tmin, tmax[ray])`.
+    #[inline(always)]
+    pub(super) fn intersect(
+        &self,
+        quad: usize,
+        lanes: u32,
+        tri: &[Vec3A; 3],
+        tmin: f32,
+        tmax: &[f32; PACKET_RAYS],
+    ) -> QuadHits {
+        #[cfg(target_arch = "x86_64")]
+        {
+            self.intersect_sse(quad, lanes, tri, tmin, tmax)
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            self.intersect_lanes(quad, lanes, tri, tmin, tmax)
+        }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn intersect_sse(
+        &self,
+        quad: usize,
+        lanes: u32,
+        tri: &[Vec3A; 3],
+        tmin: f32,
+        tmax: &[f32; PACKET_RAYS],
+    ) -> QuadHits {
+        use std::arch::x86_64::{
+            __m128, _mm_add_ps, _mm_and_ps, _mm_andnot_ps, _mm_cmpeq_ps, _mm_cmpgt_ps, _mm_cmplt_ps, _mm_div_ps,
+            _mm_loadu_ps, _mm_movemask_ps, _mm_mul_ps, _mm_or_ps, _mm_set1_ps, _mm_setzero_ps, _mm_storeu_ps,
+            _mm_sub_ps,
+        };
+        let [kx, ky, kz] = unpack(self.k[quad]);
+        let at = quad * 4;
+        let mut out = QuadHits { hit: 0, retry: 0, t: [0.0; 4], b1: [0.0; 4], b2: [0.0; 4] };
+        // SAFETY: SSE and SSE2 are in every x86-64 CPU (the target's baseline), and each load or
+        // store touches the four floats `at..at + 4` of a `PACKET_RAYS` array (`at + 4 <=
+        // PACKET_RAYS` as `quad < QUADS`) or of a four-float array.
+        unsafe {
+            let load = |a: &[f32; PACKET_RAYS]| _mm_loadu_ps(a[at..at + 4].as_ptr());
+            let (ox, oy, oz) = (load(&self.origin[0]), load(&self.origin[1]), load(&self.origin[2]));
+            let (sx, sy, sz) = (load(&self.shear[0]), load(&self.shear[1]), load(&self.shear[2]));
+            // A corner relative to each origin, permuted, then sheared: (x, y, z) of the paper.
+            let corner = |p: Vec3A| -> (__m128, __m128, __m128) {
+                let x = _mm_sub_ps(_mm_set1_ps(p[kx]), ox);
+                let y = _mm_sub_ps(_mm_set1_ps(p[ky]), oy);
+                let z = _mm_sub_ps(_mm_set1_ps(p[kz]), oz);
+                (_mm_sub_ps(x, _mm_mul_ps(sx, z)), _mm_sub_ps(y, _mm_mul_ps(sy, z)), z)
+            };
+            let (ax, ay, az) = corner(tri[0]);
+            let (bx, by, bz) = corner(tri[1]);
+            let (cx, cy, cz) = corner(tri[2]);
+            let u = _mm_sub_ps(_mm_mul_ps(cx, by), _mm_mul_ps(cy, bx));
+            let v = _mm_sub_ps(_mm_mul_ps(ax, cy), _mm_mul_ps(ay, cx));
+            let w = _mm_sub_ps(_mm_mul_ps(bx, ay), _mm_mul_ps(by, ax));
+            let zero = _mm_setzero_ps();
+            let on_edge = _mm_or_ps(_mm_or_ps(_mm_cmpeq_ps(u, zero), _mm_cmpeq_ps(v, zero)), _mm_cmpeq_ps(w, zero));
+            let negative = _mm_or_ps(_mm_or_ps(_mm_cmplt_ps(u, zero), _mm_cmplt_ps(v, zero)), _mm_cmplt_ps(w, zero));
+            let positive = _mm_or_ps(_mm_or_ps(_mm_cmpgt_ps(u, zero), _mm_cmpgt_ps(v, zero)), _mm_cmpgt_ps(w, zero));
+            let det = _mm_add_ps(_mm_add_ps(u, v), w);
+            let t_scaled = _mm_add_ps(
+                _mm_add_ps(_mm_mul_ps(u, _mm_mul_ps(sz, az)), _mm_mul_ps(v, _mm_mul_ps(sz, bz))),
+                _mm_mul_ps(w, _mm_mul_ps(sz, cz)),
+            );
+            let inv = _mm_div_ps(_mm_set1_ps(1.0), det);
+            let t = _mm_mul_ps(t_scaled, inv);
+            // Both comparisons are false for a NaN `t`, as in the scalar `!(t > tmin && t < tmax)`.
+            let within = _mm_and_ps(_mm_cmpgt_ps(t, _mm_set1_ps(tmin)), _mm_cmplt_ps(t, load(tmax)));
+            let rejected = _mm_or_ps(_mm_and_ps(negative, positive), _mm_cmpeq_ps(det, zero));
+            let hit = _mm_andnot_ps(_mm_or_ps(rejected, on_edge), within);
+            out.retry = _mm_movemask_ps(on_edge) as u32 & lanes;
+            out.hit = _mm_movemask_ps(hit) as u32 & lanes;
+            if out.hit != 0 {
+                _mm_storeu_ps(out.t.as_mut_ptr(), t);
+                _mm_storeu_ps(out.b1.as_mut_ptr(), _mm_mul_ps(v, inv));
+                _mm_storeu_ps(out.b2.as_mut_ptr(), _mm_mul_ps(w, inv));
+            }
+        }
+        out
+    }
+
+    /// The lane-wise test in plain scalar code, the same operations in the same order: the
+    /// fallback off x86-64, and what the SSE path is tested against.
+    #[cfg_attr(target_arch = "x86_64", allow(dead_code))]
+    fn intersect_lanes(
+        &self,
+        quad: usize,
+        lanes: u32,
+        tri: &[Vec3A; 3],
+        tmin: f32,
+        tmax: &[f32; PACKET_RAYS],
+    ) -> QuadHits {
+        let [kx, ky, kz] = unpack(self.k[quad]);
+        let mut out = QuadHits { hit: 0, retry: 0, t: [0.0; 4], b1: [0.0; 4], b2: [0.0; 4] };
+        for lane in 0..4 {
+            let r = quad * 4 + lane;
+            let (o, s) = (self.origin.map(|a| a[r]), self.shear.map(|a| a[r]));
+            let corner = |p: Vec3A| {
+                let (x, y, z) = (p[kx] - o[0], p[ky] - o[1], p[kz] - o[2]);
+                (x - s[0] * z, y - s[1] * z, z)
+            };
+            let ((ax, ay, az), (bx, by, bz), (cx, cy, cz)) = (corner(tri[0]), corner(tri[1]), corner(tri[2]));
+            let u = cx * by - cy * bx;
+            let v = ax * cy - ay * cx;
+            let w = bx * ay - by * ax;
+            let on_edge = u == 0.0 || v == 0.0 || w == 0.0;
+            let rejected = (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0);
+            let det = u + v + w;
+            let t_scaled = u * (s[2] * az) + v * (s[2] * bz) + w * (s[2] * cz);
+            let inv = 1.0 / det;
+            let t = t_scaled * inv;
+            let bit = 1 << lane;
+            if on_edge {
+                out.retry |= bit & lanes;
+            } else if !rejected && det != 0.0 && t > tmin && t < tmax[r] {
+                out.hit |= bit & lanes;
+            }
+            (out.t[lane], out.b1[lane], out.b2[lane]) = (t, v * inv, w * inv);
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn vec3() -> impl Strategy<Value = Vec3> {
+        (-2.0f32..2.0, -2.0f32..2.0, -2.0f32..2.0).prop_map(|(x, y, z)| Vec3::new(x, y, z))
+    }
+
+    /// Four rays from a few metres away towards points in and around a triangle (weights
+    /// `spread`, outside the triangle where one is negative), their origins a few millimetres
+    /// apart.
+    fn quad_case(away: Vec3, spread: [Vec3; 4], tri: [Vec3; 3]) -> (QuadRays, [f32; PACKET_RAYS], [ShearedRay; 4]) {
+        let mut quads = QuadRays::default();
+        let centroid = (tri[0] + tri[1] + tri[2]) / 3.0;
+        let origin = centroid + away.normalize_or(Vec3::Z) * 5.0;
+        let rays = spread.map(|w| {
+            let target = (tri[0] * w.x + tri[1] * w.y + tri[2] * w.z) / (w.x + w.y + w.z);
+            ShearedRay::new(origin + w * 0.003, (target - origin).normalize_or(Vec3::Z))
+        });
+        for (i, ray) in rays.iter().enumerate() {
+            quads.set(i, ray);
+        }
+        let mut tmax = [f32::INFINITY; PACKET_RAYS];
+        tmax[1] = 5.0;
+        (quads, tmax, rays)
+    }
+
+    fn weights() -> impl Strategy<Value = Vec3> {
+        (-0.3f32..1.0, -0.3f32..1.0, 0.1f32..1.0).prop_map(|(a, b, c)| Vec3::new(a, b, c))
+    }
+
+    proptest! {
+        /// Every lane of a shared quad gets the scalar test's answer, bit for bit (or is handed
+        /// back for it); the SSE path and the plain lanes agree.
+        #[test]
+        fn lanes_answer_as_the_scalar_test(
+            away in vec3(),
+            spread in [weights(), weights(), weights(), weights()],
+            tri in [vec3(), vec3(), vec3()],
+            lanes in 0u32..16,
+        ) {
+            let tri_a = tri.map(Vec3A::from);
+            let (quads, tmax, rays) = quad_case(away, spread, tri);
+            prop_assume!(quads.is_shared(0));
+            let got = quads.intersect(0, lanes, &tri_a, 0.0, &tmax);
+            let plain = quads.intersect_lanes(0, lanes, &tri_a, 0.0, &tmax);
+            prop_assert_eq!((got.hit, got.retry), (plain.hit, plain.retry));
+            for (lane, ray) in rays.iter().enumerate() {
+                let bit = 1 << lane;
+                if lanes & bit == 0 {
+                    prop_assert_eq!((got.hit | got.retry) & bit, 0);
+                    continue;
+                }
+                if got.retry & bit != 0 {
+                    continue;
+                }
+                let scalar = ray.intersect(&tri_a, 0.0, tmax[lane]);
+                let vector = (got.hit & bit != 0).then(|| (got.t[lane], got.b1[lane], got.b2[lane]));
+                prop_assert_eq!(scalar.map(|h| [h.0, h.1, h.2].map(f32::to_bits)), vector.map(|h| [h.0, h.1, h.2].map(f32::to_bits)));
+                prop_assert_eq!(plain.hit & bit, got.hit & bit);
+            }
+        }
+    }
+
+    #[test]
+    fn a_ray_through_a_shared_edge_is_handed_back() {
+        // Straight down onto the diagonal of a unit square split into two triangles: the edge
+        // function of the shared edge is exactly zero, so the scalar fallback must decide.
+        let tri = [Vec3A::new(0.0, 0.0, 0.0), Vec3A::new(1.0, 0.0, 0.0), Vec3A::new(1.0, 1.0, 0.0)];
+        let mut quads = QuadRays::default();
+        for i in 0..4 {
+            quads.set(i, &ShearedRay::new(Vec3::new(0.5, 0.5 - 0.1 * i as f32, 1.0), -Vec3::Z));
+        }
+        assert!(quads.is_shared(0));
+        let got = quads.intersect(0, 0b1111, &tri, 0.0, &[f32::INFINITY; PACKET_RAYS]);
+        assert_eq!(got.retry, 0b0001, "only the ray on the diagonal is handed back");
+        assert_eq!(got.hit, 0b1110);
+    }
+
+    #[test]
+    fn a_quad_of_mixed_permutations_is_not_shared() {
+        let mut quads = QuadRays::default();
+        let dirs = [Vec3::Z, Vec3::Z, Vec3::X, Vec3::Z];
+        for (i, d) in dirs.into_iter().enumerate() {
+            quads.set(i, &ShearedRay::new(Vec3::ZERO, d));
+        }
+        assert!(!quads.is_shared(0));
+        quads.set(4, &ShearedRay::new(Vec3::ZERO, Vec3::X));
+        assert!(quads.is_shared(1));
+    }
+}
