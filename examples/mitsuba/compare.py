@@ -14,7 +14,15 @@ per thread count, times interleaved in one run:
   a renderer runs it; compared with scene-gen's primary batch.
 * direct: a rendered image of the house lit by that point light, `--spp` samples per pixel.
   scene-gen: `Renderer::render` (label ray + spp camera rays, a shadow ray per hit, textured
-  Lambertian); Mitsuba: `direct` integrator, emitter_samples=1, bsdf_samples=0, diffuse BSDF.
+  Lambertian); Mitsuba: `direct` integrator, emitter_samples=1, bsdf_samples=0, one grey
+  diffuse BSDF, face normals. Mitsuba does less work here than scene-gen: no textures, no
+  interpolated normals, no label pass.
+* image: the same image, with Mitsuba doing scene-gen's work: the house as one mesh per
+  material with its UVs, vertex normals and texture (bilinear, repeating: how scene-gen samples
+  it) under a diffuse BSDF, `direct` at `--spp`; plus the label pass, Mitsuba's `aov`
+  integrator at one pixel-centre sample (depth, shading normal, shape index), as scene-gen's
+  label ray gives depth, normal and ids. Mitsuba's time is the sum of the two renders. The mean
+  green radiance of the two images must agree within 5 % (same lights, textures and BRDF).
 
 Dr.Jit compiles a kernel the first time a computation runs: every Mitsuba case is run once
 untimed (its time is reported as `first_s`, JIT compile or kernel-cache load included), then
@@ -77,6 +85,82 @@ def load_obj_z_up(path):
     return np.asarray(vertices, dtype=np.float32), np.asarray(faces, dtype=np.int32)
 
 
+def load_obj_by_material(path):
+    """Per opaque material of scene-gen's OBJ export: (name, positions Z up, uvs, normals,
+    triangles, texture path or None), each corner's (v, vt, vn) made one vertex."""
+    folder = os.path.dirname(path)
+    glass, textures, name = set(), {}, None
+    with open(os.path.join(folder, "scene.mtl")) as f:
+        for line in f:
+            parts = line.split()
+            if not parts:
+                continue
+            if parts[0] == "newmtl":
+                name = parts[1]
+                if name.split("_", 1)[-1].startswith("glass"):
+                    glass.add(name)
+            elif parts[0] == "d" and float(parts[1]) < 0.5:
+                glass.add(name)
+            elif parts[0] == "map_Kd":
+                textures[name] = os.path.join(folder, parts[1])
+    v, vt, vn, faces, material = [], [], [], {}, None
+    with open(path) as f:
+        for line in f:
+            if line.startswith("v "):
+                _, x, y, z = line.split()
+                v.append((float(x), -float(z), float(y)))
+            elif line.startswith("vt "):
+                vt.append(tuple(float(c) for c in line.split()[1:3]))
+            elif line.startswith("vn "):
+                _, x, y, z = line.split()
+                vn.append((float(x), -float(z), float(y)))
+            elif line.startswith("usemtl "):
+                material = line.split()[1]
+            elif line.startswith("f ") and material not in glass:
+                idx = [tuple(int(i) - 1 for i in p.split("/")) for p in line.split()[1:]]
+                for k in range(1, len(idx) - 1):
+                    faces.setdefault(material, []).append((idx[0], idx[k], idx[k + 1]))
+    v, vt, vn = (np.asarray(a, dtype=np.float32) for a in (v, vt, vn))
+    meshes = []
+    for material, tris in faces.items():
+        corners = np.asarray(tris, dtype=np.int64).reshape(-1, 3)
+        keys, inverse = np.unique(corners, axis=0, return_inverse=True)
+        meshes.append((material, v[keys[:, 0]], vt[keys[:, 1]], vn[keys[:, 2]],
+                       inverse.reshape(-1, 3).astype(np.int32), textures.get(material)))
+    return meshes
+
+
+def write_ply_textured(path, positions, uvs, normals, faces):
+    """Binary PLY with per-vertex normals and UVs (`nx ny nz u v`, as Mitsuba's `ply` reads)."""
+    header = (
+        "ply\nformat binary_little_endian 1.0\n"
+        f"element vertex {len(positions)}\nproperty float x\nproperty float y\nproperty float z\n"
+        "property float nx\nproperty float ny\nproperty float nz\nproperty float u\nproperty float v\n"
+        f"element face {len(faces)}\nproperty list uchar int vertex_indices\nend_header\n"
+    )
+    vertex = np.concatenate([positions, normals, uvs], axis=1).astype("<f4")
+    face_rec = np.zeros(len(faces), dtype=[("n", "u1"), ("i", "<i4", (3,))])
+    face_rec["n"] = 3
+    face_rec["i"] = faces
+    with open(path, "wb") as f:
+        f.write(header.encode("ascii"))
+        f.write(vertex.tobytes())
+        f.write(face_rec.tobytes())
+
+
+def textured_shapes(obj, out):
+    """Mitsuba shape entries for the house as scene-gen shades it: one mesh per material."""
+    shapes = {}
+    for k, (name, pos, uv, normals, faces, texture) in enumerate(load_obj_by_material(obj)):
+        ply = os.path.join(out, f"material_{k:03}.ply")
+        write_ply_textured(ply, pos, uv, normals, faces)
+        reflectance = ({"type": "bitmap", "filename": texture, "filter_type": "bilinear", "wrap_mode": "repeat"}
+                       if texture else {"type": "rgb", "value": 0.5})
+        shapes[f"house_{k:03}"] = {"type": "ply", "filename": ply, "face_normals": False,
+                                   "bsdf": {"type": "diffuse", "reflectance": reflectance}}
+    return shapes
+
+
 def write_ply(path, vertices, faces):
     """Binary little-endian PLY of a triangle mesh (what Mitsuba's `ply` plugin reads)."""
     header = (
@@ -136,7 +220,7 @@ def timed(run, repeats):
     return first, times, (time.process_time() - cpu0) / repeats
 
 
-def mitsuba_scene(ply, cam, spp, sampler="independent", integrator=None, light=True):
+def mitsuba_scene(ply, cam, spp, sampler="independent", integrator=None, light=True, shapes=None):
     pos = np.asarray(cam["position"], dtype=np.float64)
     target = pos + np.asarray(cam["forward"], dtype=np.float64)
     to_world = mi.ScalarTransform4f().look_at(
@@ -164,13 +248,16 @@ def mitsuba_scene(ply, cam, spp, sampler="independent", integrator=None, light=T
             },
             "sampler": sampler_dict,
         },
-        "house": {
+    }
+    if shapes:
+        scene.update(shapes)
+    else:
+        scene["house"] = {
             "type": "ply",
             "filename": ply,
             "face_normals": True,
             "bsdf": {"type": "diffuse", "reflectance": {"type": "rgb", "value": 0.5}},
-        },
-    }
+        }
     if light:
         i = cam["light_intensity_cd"]
         scene["light"] = {
@@ -203,6 +290,8 @@ def main():
     vertices, faces = load_obj_z_up(args.obj)
     ply = os.path.join(args.out, "house_z_up.ply")
     write_ply(ply, vertices, faces)
+    shapes = textured_shapes(args.obj, args.out)
+    textured_count = len(shapes)
     print(f"mitsuba {mi.__version__}, drjit {dr.__version__}, variant {mi.variant()}; "
           f"house: {len(faces)} triangles (glass left out)", flush=True)
 
@@ -244,9 +333,11 @@ def main():
         shadow_rays.maxt = mi.Float(dist - 2e-3)
         dr.eval(prim_rays, shadow_rays)
         scene = mitsuba_scene(ply, cam, 1)
-        direct = mitsuba_scene(
-            ply, cam, args.spp, integrator={"type": "direct", "emitter_samples": 1, "bsdf_samples": 0}
-        )
+        direct_integrator = {"type": "direct", "emitter_samples": 1, "bsdf_samples": 0}
+        direct = mitsuba_scene(ply, cam, args.spp, integrator=direct_integrator)
+        textured = mitsuba_scene(ply, cam, args.spp, integrator=direct_integrator, shapes=shapes)
+        labels = mitsuba_scene(ply, cam, 1, sampler="stratified", light=False, shapes=shapes,
+                               integrator={"type": "aov", "aovs": "dd:depth,nn:sh_normal,si:shape_index"})
 
         for threads in args.threads:
             dr.set_thread_count(threads)
@@ -265,16 +356,25 @@ def main():
                 dr.sync_thread()
                 return blocked
 
+            def image():
+                return render_eval(labels, 1), render_eval(textured, args.spp)
+
             mit = {
                 "primary": timed(primary, args.repeats),
                 "shadow": timed(shadow, args.repeats),
                 "depth": timed(lambda: render_eval(scene, 1), args.repeats),
                 "direct": timed(lambda: render_eval(direct, args.spp), args.repeats),
+                "image": timed(image, args.repeats),
             }
+            # Same picture? Mean green radiance of the textured image against scene-gen's.
+            mean_mi = float(np.asarray(render_eval(textured, args.spp))[:, :, 1].mean())
+            mean_ours = ours["direct"]["mean_green_nit"]
+            if abs(mean_mi / mean_ours - 1.0) > 0.05:
+                failures.append(f"{res}: textured images differ (mean green {mean_ours:.5f} vs Mitsuba {mean_mi:.5f})")
             blocked_mi = int(np.asarray(shadow()).sum())
             rays = {"primary": n, "shadow": len(pts), "depth": n}
             for case, (first, times, cpu_s) in mit.items():
-                mine = ours["primary" if case == "depth" else case]
+                mine = ours[{"depth": "primary", "image": "direct"}.get(case, case)]
                 row = {
                     "res": res, "threads": threads, "case": case,
                     "scene_gen_s": mine["best_s"], "scene_gen_times_s": mine["times_s"],
@@ -289,8 +389,11 @@ def main():
                     row["mitsuba_mrays_s"] = rays[case] / min(times) / 1e6
                 if case == "shadow":
                     row["blocked"] = {"scene_gen": mine["blocked"], "mitsuba": blocked_mi}
-                if case == "direct":
+                if case in ("direct", "image"):
                     row["spp"] = args.spp
+                if case == "image":
+                    row["mean_green_nit"] = {"scene_gen": mean_ours, "mitsuba": mean_mi}
+                    row["mitsuba_meshes"] = textured_count
                 results.append(row)
                 print(json.dumps(row), flush=True)
 

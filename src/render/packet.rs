@@ -114,6 +114,9 @@ impl RayPacket {
     pub fn keep_reachable(&self, candidates: &mut Vec<u32>, bounds: impl Fn(u32) -> (Vec3, Vec3)) {
         if self.len == 0 {
             candidates.clear();
+        }
+        if candidates.is_empty() {
+            // Nothing to keep (a house lit only by lamps): no bounds to build.
             return;
         }
         let packet = PacketBounds::new(self, self.all(), &self.tmax);

@@ -64,7 +64,9 @@ impl BoxRay {
     /// component gives `+inf` and the lower plane first.
     #[inline(always)]
     pub(super) fn new(origin: Vec3, direction: Vec3) -> BoxRay {
-        let inv = direction.recip();
+        // One vector division (`Vec3A`) for the three reciprocals; the same values as three
+        // scalar ones.
+        let inv = Vec3::from(Vec3A::from(direction).recip());
         BoxRay { origin: origin.to_array(), inv: inv.to_array(), negative: [inv.x < 0.0, inv.y < 0.0, inv.z < 0.0] }
     }
 
