@@ -79,6 +79,9 @@ struct TriAttr {
     material: u32,
     /// Index into `Geometry::nodes`.
     node: u32,
+    /// Unit normal of the triangle's plane (the corners' winding), computed once: normalising
+    /// a cross product per shaded sample was a few per cent of an image.
+    geometric_normal: Vec3,
 }
 
 /// A triangle index no BVH holds: "no hint" for [`Accel::blocker`].
@@ -292,7 +295,12 @@ impl Accel {
                         continue;
                     }
                     triangles.push(Triangle { v0: p0.into(), v1: p1.into(), v2: p2.into() });
-                    attrs.push(TriAttr { vertices: v, material: primitive.material as u32, node: node_index as u32 });
+                    attrs.push(TriAttr {
+                        vertices: v,
+                        material: primitive.material as u32,
+                        node: node_index as u32,
+                        geometric_normal: (p1 - p0).cross(p2 - p0).normalize_or_zero(),
+                    });
                 }
             }
         }
@@ -383,10 +391,9 @@ impl Accel {
     #[inline(always)]
     pub fn surface(&self, hit: &Hit, origin: Vec3, direction: Vec3) -> SurfacePoint {
         let attr = self.attrs[hit.triangle as usize];
-        let [p0, p1, p2] = self.tris[hit.triangle as usize].map(Vec3::from);
         let b0 = 1.0 - hit.b1 - hit.b2;
         let [i0, i1, i2] = attr.vertices.map(|i| i as usize);
-        let mut geometric = (p1 - p0).cross(p2 - p0).normalize_or_zero();
+        let mut geometric = attr.geometric_normal;
         if geometric.dot(direction) > 0.0 {
             geometric = -geometric;
         }
