@@ -48,16 +48,15 @@ import mitsuba as mi
 mi.set_variant("llvm_ad_rgb")
 
 
-def load_obj_z_up(path):
-    """Vertices (Z up, metres) and the triangles of scene-gen's OBJ export, glass left out.
+def read_mtl(obj_path):
+    """(glass material names, {material: texture path}) of the scene.mtl beside an OBJ export.
 
-    The export writes world (x, y, z) as (x, z, -y); this undoes it. A material is glass when
-    scene-gen's `is_transparent` says so: its name starts with `glass` or its alpha `d` < 0.5.
+    A material is glass when scene-gen's `is_transparent` says so: its name starts with `glass`
+    or its alpha `d` < 0.5.
     """
-    mtl = os.path.join(os.path.dirname(path), "scene.mtl")
-    glass = set()
-    name = None
-    with open(mtl) as f:
+    folder = os.path.dirname(obj_path)
+    glass, textures, name = set(), {}, None
+    with open(os.path.join(folder, "scene.mtl")) as f:
         for line in f:
             parts = line.split()
             if not parts:
@@ -69,6 +68,17 @@ def load_obj_z_up(path):
                     glass.add(name)
             elif parts[0] == "d" and float(parts[1]) < 0.5:
                 glass.add(name)
+            elif parts[0] == "map_Kd":
+                textures[name] = os.path.join(folder, parts[1])
+    return glass, textures
+
+
+def load_obj_z_up(path):
+    """Vertices (Z up, metres) and the triangles of scene-gen's OBJ export, glass left out.
+
+    The export writes world (x, y, z) as (x, z, -y); this undoes it.
+    """
+    glass, _ = read_mtl(path)
     vertices, faces = [], []
     skip = False
     with open(path) as f:
@@ -88,21 +98,7 @@ def load_obj_z_up(path):
 def load_obj_by_material(path):
     """Per opaque material of scene-gen's OBJ export: (name, positions Z up, uvs, normals,
     triangles, texture path or None), each corner's (v, vt, vn) made one vertex."""
-    folder = os.path.dirname(path)
-    glass, textures, name = set(), {}, None
-    with open(os.path.join(folder, "scene.mtl")) as f:
-        for line in f:
-            parts = line.split()
-            if not parts:
-                continue
-            if parts[0] == "newmtl":
-                name = parts[1]
-                if name.split("_", 1)[-1].startswith("glass"):
-                    glass.add(name)
-            elif parts[0] == "d" and float(parts[1]) < 0.5:
-                glass.add(name)
-            elif parts[0] == "map_Kd":
-                textures[name] = os.path.join(folder, parts[1])
+    glass, textures = read_mtl(path)
     v, vt, vn, faces, material = [], [], [], {}, None
     with open(path) as f:
         for line in f:

@@ -20,7 +20,7 @@
 //! superset of the triangles it would test alone: an occlusion answer is the same, and a
 //! closest hit is the same up to which of two triangles at exactly the same distance wins.
 
-use glam::Vec3;
+use glam::{Vec3, Vec3A};
 
 use super::accel::{Accel, Hit, ShearedRay, positive_zeros};
 use super::quad::QuadRays;
@@ -98,6 +98,42 @@ impl RayPacket {
         self.quads.set(i, &self.sheared[i]);
         self.len += 1;
         i
+    }
+
+    /// Calls `found(ray, (t, b1, b2), tmax)` for each ray of `rays` that hits `tri` within
+    /// `(0, tmax[ray])`: four rays at a time where a quad's rays share their axis permutation
+    /// ([`QuadRays`]), else, and for a lane on an edge, one ray at a time. A ray's `tmax` may be
+    /// shortened by `found` before a later ray is tested, never its own before its test.
+    #[inline(always)]
+    fn for_each_hit(
+        &self,
+        tri: &[Vec3A; 3],
+        rays: u64,
+        tmax: &mut [f32; PACKET_RAYS],
+        mut found: impl FnMut(usize, (f32, f32, f32), &mut [f32; PACKET_RAYS]),
+    ) {
+        let mut rest = rays;
+        while rest != 0 {
+            let quad = rest.trailing_zeros() as usize / 4;
+            rest &= !(0xFu64 << (quad * 4));
+            let lanes = ((rays >> (quad * 4)) & 0xF) as u32;
+            let one_by_one = if self.quads.is_shared(quad) {
+                let quad_hits = self.quads.intersect(quad, lanes, tri, 0.0, tmax);
+                for lane in bits(u64::from(quad_hits.hit)) {
+                    let hit = (quad_hits.t[lane], quad_hits.b1[lane], quad_hits.b2[lane]);
+                    found(quad * 4 + lane, hit, tmax);
+                }
+                quad_hits.retry
+            } else {
+                lanes
+            };
+            for lane in bits(u64::from(one_by_one)) {
+                let r = quad * 4 + lane;
+                if let Some(hit) = self.sheared[r].intersect(tri, 0.0, tmax[r]) {
+                    found(r, hit, tmax);
+                }
+            }
+        }
     }
 
     /// Bit mask of every ray in the packet.
@@ -317,29 +353,11 @@ struct ClosestHits<'h> {
 impl LeafVisitor for ClosestHits<'_> {
     #[inline(always)]
     fn visit(&mut self, accel: &Accel, triangle: usize, rays: u64, tmax: &mut [f32; PACKET_RAYS], _: &mut u64) -> bool {
-        let tri = &accel.triangles()[triangle];
         let mut changed = false;
-        let mut record = |r: usize, (t, b1, b2): (f32, f32, f32), tmax: &mut [f32; PACKET_RAYS]| {
+        self.packet.for_each_hit(&accel.triangles()[triangle], rays, tmax, |r, (t, b1, b2), tmax| {
             self.hits[r] = Some(Hit { t, triangle: triangle as u32, b1, b2 });
             tmax[r] = t;
             changed = true;
-        };
-        for_each_quad(rays, |quad, lanes| {
-            let one_by_one = if self.packet.quads.is_shared(quad) {
-                let found = self.packet.quads.intersect(quad, lanes, tri, 0.0, tmax);
-                for lane in bits(u64::from(found.hit)) {
-                    record(quad * 4 + lane, (found.t[lane], found.b1[lane], found.b2[lane]), tmax);
-                }
-                found.retry
-            } else {
-                lanes
-            };
-            for lane in bits(u64::from(one_by_one)) {
-                let r = quad * 4 + lane;
-                if let Some(hit) = self.packet.sheared[r].intersect(tri, 0.0, tmax[r]) {
-                    record(r, hit, tmax);
-                }
-            }
         });
         changed
     }
@@ -359,36 +377,11 @@ impl LeafVisitor for AnyHits<'_> {
         tmax: &mut [f32; PACKET_RAYS],
         active: &mut u64,
     ) -> bool {
-        let tri = &accel.triangles()[triangle];
         let before = *active;
-        for_each_quad(rays & *active, |quad, lanes| {
-            let (mut blocked, one_by_one) = if self.packet.quads.is_shared(quad) {
-                let found = self.packet.quads.intersect(quad, lanes, tri, 0.0, tmax);
-                (found.hit, found.retry)
-            } else {
-                (0, lanes)
-            };
-            for lane in bits(u64::from(one_by_one)) {
-                let r = quad * 4 + lane;
-                if self.packet.sheared[r].intersect(tri, 0.0, tmax[r]).is_some() {
-                    blocked |= 1 << lane;
-                }
-            }
-            *active &= !(u64::from(blocked) << (quad * 4));
-        });
+        let mut blocked = 0u64;
+        self.packet.for_each_hit(&accel.triangles()[triangle], rays & *active, tmax, |r, _, _| blocked |= 1 << r);
+        *active &= !blocked;
         *active != before
-    }
-}
-
-/// Calls `f(quad, lanes)` for each quad of four rays with a ray in `rays`, `lanes` its rays'
-/// bits (0..4).
-#[inline(always)]
-fn for_each_quad(rays: u64, mut f: impl FnMut(usize, u32)) {
-    let mut rest = rays;
-    while rest != 0 {
-        let quad = rest.trailing_zeros() as usize / 4;
-        f(quad, ((rays >> (quad * 4)) & 0xF) as u32);
-        rest &= !(0xFu64 << (quad * 4));
     }
 }
 
