@@ -74,30 +74,22 @@ def read_mtl(obj_path):
 
 
 def load_obj_z_up(path):
-    """Vertices (Z up, metres) and the triangles of scene-gen's OBJ export, glass left out.
-
-    The export writes world (x, y, z) as (x, z, -y); this undoes it.
-    """
-    glass, _ = read_mtl(path)
-    vertices, faces = [], []
-    skip = False
-    with open(path) as f:
-        for line in f:
-            if line.startswith("v "):
-                _, x, y, z = line.split()
-                vertices.append((float(x), -float(z), float(y)))
-            elif line.startswith("usemtl "):
-                skip = line.split()[1] in glass
-            elif line.startswith("f ") and not skip:
-                idx = [int(p.split("/")[0]) - 1 for p in line.split()[1:]]
-                for k in range(1, len(idx) - 1):
-                    faces.append((idx[0], idx[k], idx[k + 1]))
-    return np.asarray(vertices, dtype=np.float32), np.asarray(faces, dtype=np.int32)
+    """Vertices (Z up, metres) and the triangles of scene-gen's OBJ export, glass left out: the
+    meshes of `load_obj_by_material` in one."""
+    vertices, faces, offset = [], [], 0
+    for _, positions, _, _, triangles, _ in load_obj_by_material(path):
+        vertices.append(positions)
+        faces.append(triangles + offset)
+        offset += len(positions)
+    return np.concatenate(vertices), np.concatenate(faces).astype(np.int32)
 
 
 def load_obj_by_material(path):
     """Per opaque material of scene-gen's OBJ export: (name, positions Z up, uvs, normals,
-    triangles, texture path or None), each corner's (v, vt, vn) made one vertex."""
+    triangles, texture path or None), each corner's (v, vt, vn) made one vertex.
+
+    The export writes world (x, y, z) as (x, z, -y); this undoes it.
+    """
     glass, textures = read_mtl(path)
     v, vt, vn, faces, material = [], [], [], {}, None
     with open(path) as f:
