@@ -4,7 +4,7 @@
 //! ```text
 //! cargo run --release --example bench_render                 # the table below, best of 3
 //! cargo run --release --example bench_render -- --case primary --res 640x480 --threads 1 \
-//!     [--camera-out cam.json] [--depth-out depth.f32]          # one case, one JSON line
+//!     [--camera-out cam.json] [--depth-out depth.f32] [--repeats 3] # one case, one JSON line
 //! ```
 //!
 //! The ray batches are traced in 8 x 8 pixel packets (`Accel::closest_hits`,
@@ -50,10 +50,12 @@ use scene_gen::evaluate::scenario_light_scales;
 use scene_gen::generate::generate;
 use scene_gen::library::Library;
 use scene_gen::radiometry::capture;
+use scene_gen::render::accel::Accel;
 use scene_gen::render::packet::{PACKET_RAYS, RayPacket};
 use scene_gen::render::{Camera, Frame, RenderSettings, Renderer, ShadingRate};
 use scene_gen::scene::{Light, LightGroup, LightKind, Scene};
 use scene_gen::sensor::Catalog;
+use scene_gen::simd::Dispatch;
 use scene_gen::trajectory::{self, TrajectoryParams};
 
 type BoxResult<T> = Result<T, Box<dyn std::error::Error + Send + Sync>>;
@@ -65,7 +67,9 @@ const SENSOR: &str = "IMX174";
 /// Pose of the walk the camera stands at: inside the first room, looking along the walk
 /// (chosen so most pixels see geometry at several depths, not a wall at arm's length).
 const POSE_INDEX: usize = 6;
-const REPEATS: usize = 3;
+/// Runs per timed case unless `--repeats` says otherwise (more for profiling, where a pass of
+/// tens of milliseconds would be lost in the setup).
+static REPEATS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(3);
 
 struct Setup {
     scene: Scene,
@@ -134,19 +138,20 @@ thread_local! {
     static LAST_CPU_S: std::cell::Cell<f64> = const { std::cell::Cell::new(0.0) };
 }
 
-/// Wall times of `REPEATS` runs of `run`, and what the last run returned; the mean CPU time
+/// Wall times of [`REPEATS`] runs of `run`, and what the last run returned; the mean CPU time
 /// per run goes to [`LAST_CPU_S`].
 fn timed<T>(mut run: impl FnMut() -> T) -> (Vec<f64>, T) {
     let mut times = Vec::new();
     let mut last = None;
     let cpu0 = process_cpu_s();
-    for _ in 0..REPEATS {
+    let repeats = REPEATS.load(std::sync::atomic::Ordering::Relaxed);
+    for _ in 0..repeats {
         let start = Instant::now();
         last = Some(run());
         times.push(start.elapsed().as_secs_f64());
     }
-    LAST_CPU_S.with(|c| c.set((process_cpu_s() - cpu0) / REPEATS as f64));
-    (times, last.expect("REPEATS > 0"))
+    LAST_CPU_S.with(|c| c.set((process_cpu_s() - cpu0) / repeats as f64));
+    (times, last.expect("--repeats is at least 1"))
 }
 
 fn best(times: &[f64]) -> f64 {
@@ -181,6 +186,14 @@ fn band_tiles(width: usize, height: usize, y0: usize) -> impl Iterator<Item = Ve
     })
 }
 
+/// Whether the ray batches run in a clone of their loops built for AVX2 and FMA: where the
+/// renderer's tile loop does (`scene_gen::simd`: this CPU has them and `SCENE_GEN_NO_SIMD` is not
+/// set), so the batches measure the traversal code the renderer runs, not a baseline build of it
+/// that no frame uses.
+fn avx2_clone() -> bool {
+    cfg!(target_arch = "x86_64") && Dispatch::current().supported() == Dispatch::Avx2Fma
+}
+
 /// Ray distance of every pixel-centre ray (+inf for a miss), on the current pool.
 fn primary_pass(renderer: &Renderer<'_>, camera: &Camera, directions: &[Vec3], traversal: Traversal) -> Vec<f32> {
     let accel = renderer.accel();
@@ -196,20 +209,55 @@ fn primary_pass(renderer: &Renderer<'_>, camera: &Camera, directions: &[Vec3], t
     }
     let mut t = vec![f32::INFINITY; directions.len()];
     t.par_chunks_mut(w * TILE).enumerate().for_each(|(band, out)| {
-        let mut packet = RayPacket::new();
-        let mut hits = [None; PACKET_RAYS];
-        for tile in band_tiles(w, h, band * TILE) {
-            packet.clear();
-            for &i in &tile {
-                packet.push(origin, directions[i], f32::INFINITY);
-            }
-            accel.closest_hits(&packet, &mut hits);
-            for (k, &i) in tile.iter().enumerate() {
-                out[i - band * TILE * w] = hits[k].map_or(f32::INFINITY, |h| h.t);
-            }
+        let tiles: Vec<Vec<usize>> = band_tiles(w, h, band * TILE).collect();
+        let first_pixel = band * TILE * w;
+        #[cfg(target_arch = "x86_64")]
+        if avx2_clone() {
+            // SAFETY: `avx2_clone` says this CPU runs AVX2 and FMA.
+            return unsafe { primary_band_avx2(accel, origin, directions, &tiles, first_pixel, out) };
         }
+        primary_band(accel, origin, directions, &tiles, first_pixel, out);
     });
     t
+}
+
+/// The closest-hit distance of the pixel-centre rays of one band's `tiles`, a packet per tile,
+/// into `out` (which starts at pixel `first_pixel`).
+#[inline(always)]
+fn primary_band(
+    accel: &Accel,
+    origin: Vec3,
+    directions: &[Vec3],
+    tiles: &[Vec<usize>],
+    first_pixel: usize,
+    out: &mut [f32],
+) {
+    let mut packet = RayPacket::new();
+    let mut hits = [None; PACKET_RAYS];
+    for tile in tiles {
+        packet.clear();
+        for &i in tile {
+            packet.push(origin, directions[i], f32::INFINITY);
+        }
+        accel.closest_hits(&mut packet, &mut hits);
+        for (k, &i) in tile.iter().enumerate() {
+            out[i - first_pixel] = hits[k].map_or(f32::INFINITY, |h| h.t);
+        }
+    }
+}
+
+/// [`primary_band`] compiled for AVX2 and FMA.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn primary_band_avx2(
+    accel: &Accel,
+    origin: Vec3,
+    directions: &[Vec3],
+    tiles: &[Vec<usize>],
+    first_pixel: usize,
+    out: &mut [f32],
+) {
+    primary_band(accel, origin, directions, tiles, first_pixel, out);
 }
 
 /// A shadow ray: origin, unit direction, length.
@@ -242,22 +290,47 @@ fn shadow_pass(renderer: &Renderer<'_>, tiles: &[Vec<ShadowRay>], traversal: Tra
     tiles
         .par_chunks(32)
         .map(|chunk| {
-            let mut packet = RayPacket::new();
-            chunk
-                .iter()
-                .map(|rays| match traversal {
-                    Traversal::Single => rays.iter().filter(|(o, d, tmax)| accel.occluded(*o, *d, *tmax)).count(),
-                    Traversal::Packet => {
-                        packet.clear();
-                        for &(o, d, tmax) in rays {
-                            packet.push(o, d, tmax);
-                        }
-                        accel.occluded_packet(&packet).count_ones() as usize
-                    }
-                })
-                .sum::<usize>()
+            #[cfg(target_arch = "x86_64")]
+            if avx2_clone() {
+                // SAFETY: `avx2_clone` says this CPU runs AVX2 and FMA.
+                return unsafe { blocked_in_tiles_avx2(accel, chunk, traversal) };
+            }
+            blocked_in_tiles(accel, chunk, traversal)
         })
         .sum()
+}
+
+/// [`blocked_in_tiles`] compiled for AVX2 and FMA.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn blocked_in_tiles_avx2(accel: &Accel, tiles: &[Vec<ShadowRay>], traversal: Traversal) -> usize {
+    blocked_in_tiles(accel, tiles, traversal)
+}
+
+/// Number of the shadow rays of `tiles` that are blocked, a packet per tile (or ray by ray).
+#[inline(always)]
+fn blocked_in_tiles(accel: &Accel, tiles: &[Vec<ShadowRay>], traversal: Traversal) -> usize {
+    // Plain loops: an iterator adaptor's `fold` is compiled out of line, in the baseline build,
+    // even when called from the AVX2 clone.
+    let mut packet = RayPacket::new();
+    let mut blocked = 0;
+    for rays in tiles {
+        match traversal {
+            Traversal::Single => {
+                for &(o, d, tmax) in rays {
+                    blocked += usize::from(accel.occluded(o, d, tmax));
+                }
+            }
+            Traversal::Packet => {
+                packet.clear();
+                for &(o, d, tmax) in rays {
+                    packet.push(o, d, tmax);
+                }
+                blocked += accel.occluded_packet(&mut packet).count_ones() as usize;
+            }
+        }
+    }
+    blocked
 }
 
 /// FNV-1a of every buffer of a frame (radiance, depth, ids, normals, as little-endian bytes):
@@ -394,6 +467,13 @@ fn parse_args() -> BoxResult<Args> {
             "--stride" => args.stride = number(&flag, &value()?)?,
             "--refine" => args.refine = true,
             "--single" => args.traversal = Traversal::Single,
+            "--repeats" => {
+                let repeats: usize = number(&flag, &value()?)?;
+                if repeats == 0 {
+                    return Err("--repeats 0: must be at least 1".into());
+                }
+                REPEATS.store(repeats, std::sync::atomic::Ordering::Relaxed);
+            }
             _ => return Err(format!("unknown argument {flag}").into()),
         }
     }

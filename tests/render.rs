@@ -728,7 +728,7 @@ mod properties {
                 packet.push(origin, *d, f32::INFINITY);
             }
             let mut hits = [None; PACKET_RAYS];
-            accel.closest_hits(&packet, &mut hits);
+            accel.closest_hits(&mut packet, &mut hits);
             let light = Vec3::new(light.0, light.1, light.2);
             let mut shadow = RayPacket::new();
             let mut expected = 0u64;
@@ -741,7 +741,7 @@ mod properties {
                 shadow.push(p, dir, dist);
                 expected |= u64::from(accel.occluded(p, dir, dist)) << i;
             }
-            prop_assert_eq!(accel.occluded_packet(&shadow), expected);
+            prop_assert_eq!(accel.occluded_packet(&mut shadow), expected);
         }
 
         /// Culling rect emitters per packet keeps every one a ray of the packet sees: each ray
@@ -778,7 +778,7 @@ mod properties {
                 })
                 .collect();
             let mut candidates = Vec::new();
-            lights.emitters_in_reach(&packet, &mut candidates);
+            lights.emitters_in_reach(&mut packet, &mut candidates);
             for d in &dirs {
                 let all = lights.emitter_seen(cam.position, *d, f32::INFINITY).map(|e| (e.0.to_bits(), e.1));
                 let among = lights

@@ -152,8 +152,15 @@ impl ShearedRay {
         }
     }
 
+    /// The ray of [`ShearedRay::parts`] `(origin, k, shear)`.
+    #[inline(always)]
+    pub(super) fn from_parts(origin: Vec3A, k: [usize; 3], shear: Vec3) -> ShearedRay {
+        ShearedRay { origin, k, shear }
+    }
+
     /// The origin, the axis permutation `(kx, ky, kz)` and the shear `(Sx, Sy, Sz)`: for the
     /// four-ray test ([`super::quad`]), which must run this test's arithmetic.
+    #[cfg(any(test, not(target_arch = "x86_64")))]
     #[inline(always)]
     pub(super) fn parts(&self) -> (Vec3A, [usize; 3], Vec3) {
         (self.origin, self.k, self.shear)

@@ -587,7 +587,7 @@ impl LightSet {
     /// every camera ray tested every window, about 4 % of an evaluator frame, while most tiles
     /// can reach none.
     #[inline(always)]
-    pub fn emitters_in_reach(&self, packet: &RayPacket, out: &mut Vec<u32>) {
+    pub fn emitters_in_reach(&self, packet: &mut RayPacket, out: &mut Vec<u32>) {
         out.clear();
         out.extend(0..self.rects.len() as u32);
         packet.keep_reachable(out, |i| self.rects[i as usize].seen_bounds);

@@ -23,7 +23,7 @@
 
 use glam::{Vec3, Vec3A};
 
-use super::accel::{Accel, Hit, ShearedRay, positive_zeros};
+use super::accel::{Accel, Hit, positive_zeros};
 use super::quad::QuadRays;
 use super::wide::{BoxRay, Child, LANES, WideNode};
 
@@ -35,15 +35,25 @@ pub const PACKET_RAYS: usize = 64;
 const INTERVAL_PAD: f32 = 1e-4;
 
 /// Up to [`PACKET_RAYS`] rays, structure of arrays.
+///
+/// [`RayPacket::push`] only stores a ray; the forms the tests take (reciprocal directions, the
+/// watertight test's permuted and sheared rays) are computed four rays at a time when the packet
+/// is traced ([`RayPacket::prepare`]). Why: computed ray by ray at each push, they took as long
+/// as walking the BVH with the packet of shadow rays.
 #[derive(Clone)]
 pub struct RayPacket {
     len: usize,
-    /// Each ray's origin and reciprocal direction as the box test of a single ray takes them,
-    /// so a packet ray enters exactly the boxes it enters alone.
-    box_ray: [BoxRay; PACKET_RAYS],
+    /// Rays `..prepared` have their reciprocals and sheared forms.
+    prepared: usize,
+    /// Origins, per axis.
+    origin: [[f32; PACKET_RAYS]; 3],
+    /// Unit directions without `-0.0` components ([`positive_zeros`]), per axis.
+    direction: [[f32; PACKET_RAYS]; 3],
+    /// Reciprocal directions as the box test of a single ray takes them ([`BoxRay::new`]), so a
+    /// packet ray enters exactly the boxes it enters alone.
+    inv: [[f32; PACKET_RAYS]; 3],
     tmax: [f32; PACKET_RAYS],
-    sheared: [ShearedRay; PACKET_RAYS],
-    /// The same sheared rays four to a quad, for the four-ray triangle test.
+    /// The sheared rays, four to a quad, for the triangle test.
     quads: QuadRays,
 }
 
@@ -51,9 +61,11 @@ impl Default for RayPacket {
     fn default() -> Self {
         RayPacket {
             len: 0,
-            box_ray: [BoxRay::new(Vec3::ZERO, Vec3::Z); PACKET_RAYS],
+            prepared: 0,
+            origin: [[0.0; PACKET_RAYS]; 3],
+            direction: [[0.0; PACKET_RAYS]; 3],
+            inv: [[0.0; PACKET_RAYS]; 3],
             tmax: [0.0; PACKET_RAYS],
-            sheared: [ShearedRay::new(Vec3::ZERO, Vec3::Z); PACKET_RAYS],
             quads: QuadRays::default(),
         }
     }
@@ -81,6 +93,7 @@ impl RayPacket {
     /// Removes every ray.
     pub fn clear(&mut self) {
         self.len = 0;
+        self.prepared = 0;
     }
 
     /// Adds the ray `origin + t * direction`, `0 < t < tmax` (`direction` unit), and returns its
@@ -93,12 +106,68 @@ impl RayPacket {
         assert!(self.len < PACKET_RAYS, "a ray packet holds at most {PACKET_RAYS} rays");
         let i = self.len;
         let direction = positive_zeros(direction);
-        self.box_ray[i] = BoxRay::new(origin, direction);
+        for axis in 0..3 {
+            self.origin[axis][i] = origin[axis];
+            self.direction[axis][i] = direction[axis];
+        }
         self.tmax[i] = tmax;
-        self.sheared[i] = ShearedRay::new(origin, direction);
-        self.quads.set(i, &self.sheared[i]);
         self.len += 1;
         i
+    }
+
+    /// Computes the reciprocals and sheared forms of the rays pushed since the last call, four
+    /// at a time (a quad partly prepared before is prepared again, whole).
+    #[inline(always)]
+    fn prepare(&mut self) {
+        if self.prepared == self.len {
+            return;
+        }
+        for quad in self.prepared / 4..self.len.div_ceil(4) {
+            let at = quad * 4;
+            // Lanes past the last ray hold stale or zero values: every test masks them out.
+            let valid = if at + 4 <= self.len { 0xF } else { (1u32 << (self.len - at)) - 1 };
+            for axis in 0..3 {
+                for r in at..at + 4 {
+                    // One division per ray, as `BoxRay::new`'s vector division gives it.
+                    self.inv[axis][r] = 1.0 / self.direction[axis][r];
+                }
+            }
+            self.quads.prepare(quad, &self.origin, &self.direction, valid);
+        }
+        self.prepared = self.len;
+    }
+
+    /// Ray `r` as the box test of a single ray takes it.
+    #[inline(always)]
+    fn box_ray(&self, r: usize) -> BoxRay {
+        BoxRay::from_parts(self.origin.map(|a| a[r]), self.inv.map(|a| a[r]))
+    }
+
+    /// Ray `r`'s origin.
+    #[inline(always)]
+    fn origin(&self, r: usize) -> Vec3A {
+        Vec3A::new(self.origin[0][r], self.origin[1][r], self.origin[2][r])
+    }
+
+    /// Rays of `rays` that enter child `lane` of `node` before their `tmax`, four at a time
+    /// ([`WideNode::lane_enters`]); with `first_only`, only the lowest such ray.
+    #[inline(always)]
+    fn reach(&self, node: &WideNode, lane: usize, rays: u64, tmax: &[f32; PACKET_RAYS], first_only: bool) -> u64 {
+        let mut reach = 0u64;
+        let mut rest = rays;
+        while rest != 0 {
+            let quad = rest.trailing_zeros() as usize / 4;
+            rest &= !(0xFu64 << (quad * 4));
+            let lanes = (rays >> (quad * 4)) & 0xF;
+            let entered = u64::from(node.lane_enters(lane, &self.origin, &self.inv, tmax, quad * 4)) & lanes;
+            if entered != 0 {
+                if first_only {
+                    return (entered & entered.wrapping_neg()) << (quad * 4);
+                }
+                reach |= entered << (quad * 4);
+            }
+        }
+        reach
     }
 
     /// Calls `found(ray, (t, b1, b2), tmax)` for each ray of `rays` that hits `tri` within
@@ -130,7 +199,7 @@ impl RayPacket {
             };
             for lane in bits(u64::from(one_by_one)) {
                 let r = quad * 4 + lane;
-                if let Some(hit) = self.sheared[r].intersect(tri, 0.0, tmax[r]) {
+                if let Some(hit) = self.quads.sheared(r, self.origin(r)).intersect(tri, 0.0, tmax[r]) {
                     found(r, hit, tmax);
                 }
             }
@@ -148,7 +217,7 @@ impl RayPacket {
     /// bounds prove that no ray reaches it. For culling per-ray tests that are not in the BVH
     /// (the rect emitters a camera ray may see) once per packet.
     #[inline(always)]
-    pub fn keep_reachable(&self, candidates: &mut Vec<u32>, bounds: impl Fn(u32) -> (Vec3, Vec3)) {
+    pub fn keep_reachable(&mut self, candidates: &mut Vec<u32>, bounds: impl Fn(u32) -> (Vec3, Vec3)) {
         if self.len == 0 {
             candidates.clear();
         }
@@ -156,6 +225,7 @@ impl RayPacket {
             // Nothing to keep (a house lit only by lamps): no bounds to build.
             return;
         }
+        self.prepare();
         let packet = PacketBounds::new(self, self.all(), &self.tmax);
         // A loop, not `retain` with a closure, which was compiled out of line, with baseline
         // code, in the AVX2 build of the tile loop (`crate::simd`).
@@ -195,19 +265,80 @@ impl PacketBounds {
             bounded: [true; 3],
             tmax: 0.0,
         };
-        for r in bits(rays) {
-            let ray = &packet.box_ray[r];
-            b.origin_min = b.origin_min.min(ray.origin());
-            b.origin_max = b.origin_max.max(ray.origin());
-            b.inv_min = b.inv_min.min(ray.inv_direction());
-            b.inv_max = b.inv_max.max(ray.inv_direction());
-            b.tmax = b.tmax.max(tmax[r]);
-        }
+        b.gather(packet, rays, tmax);
         for axis in 0..3 {
             let (lo, hi) = (b.inv_min[axis], b.inv_max[axis]);
             b.bounded[axis] = lo.is_finite() && hi.is_finite() && (lo > 0.0 || hi < 0.0);
         }
         b
+    }
+
+    /// The ranges of origins and reciprocals and the largest `tmax` of `rays`: ray by ray off
+    /// x86-64, a quad at a time with SSE on it (minima and maxima are exact, so the ranges are
+    /// the same; no value is NaN).
+    #[inline(always)]
+    fn gather(&mut self, packet: &RayPacket, rays: u64, tmax: &[f32; PACKET_RAYS]) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            self.gather_sse(packet, rays, tmax);
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            for r in bits(rays) {
+                let ray = packet.box_ray(r);
+                self.origin_min = self.origin_min.min(ray.origin());
+                self.origin_max = self.origin_max.max(ray.origin());
+                self.inv_min = self.inv_min.min(ray.inv_direction());
+                self.inv_max = self.inv_max.max(ray.inv_direction());
+                self.tmax = self.tmax.max(tmax[r]);
+            }
+        }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn gather_sse(&mut self, packet: &RayPacket, rays: u64, tmax: &[f32; PACKET_RAYS]) {
+        use std::arch::x86_64::{
+            __m128, _mm_and_ps, _mm_and_si128, _mm_andnot_ps, _mm_castsi128_ps, _mm_cmpeq_epi32, _mm_loadu_ps,
+            _mm_max_ps, _mm_min_ps, _mm_or_ps, _mm_set_epi32, _mm_set1_epi32, _mm_set1_ps, _mm_storeu_ps,
+        };
+        // SAFETY: SSE and SSE2 are in every x86-64 CPU (the target's baseline), and each load
+        // or store touches the four floats `at..at + 4` of a `PACKET_RAYS` array (the slice
+        // index checks `at + 4 <= PACKET_RAYS`) or a four-float array.
+        unsafe {
+            let select = |m: __m128, a: __m128, b: __m128| _mm_or_ps(_mm_and_ps(m, a), _mm_andnot_ps(m, b));
+            let (inf, neg_inf, zero) = (_mm_set1_ps(f32::INFINITY), _mm_set1_ps(f32::NEG_INFINITY), _mm_set1_ps(0.0));
+            let lane_bits = _mm_set_epi32(8, 4, 2, 1);
+            let mut lo = [inf; 6];
+            let mut hi = [neg_inf; 6];
+            let mut far = zero;
+            let mut rest = rays;
+            while rest != 0 {
+                let at = (rest.trailing_zeros() as usize / 4) * 4;
+                rest &= !(0xFu64 << at);
+                let lanes = _mm_set1_epi32(((rays >> at) & 0xF) as i32);
+                let m = _mm_castsi128_ps(_mm_cmpeq_epi32(_mm_and_si128(lanes, lane_bits), lane_bits));
+                let load = |a: &[f32; PACKET_RAYS]| _mm_loadu_ps(a[at..at + 4].as_ptr());
+                for (k, values) in packet.origin.iter().chain(&packet.inv).enumerate() {
+                    let v = load(values);
+                    lo[k] = _mm_min_ps(lo[k], select(m, v, inf));
+                    hi[k] = _mm_max_ps(hi[k], select(m, v, neg_inf));
+                }
+                far = _mm_max_ps(far, select(m, load(tmax), zero));
+            }
+            let lanes = |v: __m128| {
+                let mut out = [0.0f32; 4];
+                _mm_storeu_ps(out.as_mut_ptr(), v);
+                out
+            };
+            let min = |v: __m128| lanes(v).into_iter().fold(f32::INFINITY, f32::min);
+            let max = |v: __m128| lanes(v).into_iter().fold(f32::NEG_INFINITY, f32::max);
+            self.origin_min = Vec3::new(min(lo[0]), min(lo[1]), min(lo[2]));
+            self.origin_max = Vec3::new(max(hi[0]), max(hi[1]), max(hi[2]));
+            self.inv_min = Vec3::new(min(lo[3]), min(lo[4]), min(lo[5]));
+            self.inv_max = Vec3::new(max(hi[3]), max(hi[4]), max(hi[5]));
+            self.tmax = max(far).max(0.0);
+        }
     }
 
     /// Sets the far end of the interval to the largest `tmax` of `rays`: all a leaf changes
@@ -393,7 +524,9 @@ impl Accel {
     /// # Panics
     /// When `hits` is shorter than the packet.
     #[inline(always)]
-    pub fn closest_hits(&self, packet: &RayPacket, hits: &mut [Option<Hit>]) {
+    pub fn closest_hits(&self, packet: &mut RayPacket, hits: &mut [Option<Hit>]) {
+        packet.prepare();
+        let packet = &*packet;
         let hits = &mut hits[..packet.len()];
         hits.fill(None);
         let mut tmax = packet.tmax;
@@ -405,7 +538,9 @@ impl Accel {
     /// [`Accel::occluded`] ray by ray.
     #[must_use]
     #[inline(always)]
-    pub fn occluded_packet(&self, packet: &RayPacket) -> u64 {
+    pub fn occluded_packet(&self, packet: &mut RayPacket) -> u64 {
+        packet.prepare();
+        let packet = &*packet;
         let mut tmax = packet.tmax;
         let all = packet.all();
         let mut active = all;
@@ -453,7 +588,7 @@ impl Accel {
             // The first ray still in the subtree against all eight boxes, and the interval
             // bounds of the packet against all eight, each in one vector pass.
             let first = rays.trailing_zeros() as usize;
-            let (first_near, first_enters) = node.enter(&packet.box_ray[first], tmax[first]);
+            let (first_near, first_enters) = node.enter(&packet.box_ray(first), tmax[first]);
             let rejected = bounds.rejects_lanes(node);
             let mut inner: [(f32, u32, u64); LANES] = [(0.0, 0, 0); LANES];
             let mut inner_count = 0;
@@ -465,12 +600,7 @@ impl Accel {
                         if rejected & bit != 0 {
                             continue;
                         }
-                        let mut reach = 0u64;
-                        for r in bits(rays) {
-                            if node.lane_enter(lane, &packet.box_ray[r], tmax[r]).is_some() {
-                                reach |= 1u64 << r;
-                            }
-                        }
+                        let reach = packet.reach(node, lane, rays, tmax, false);
                         if reach == 0 {
                             continue;
                         }
@@ -487,8 +617,12 @@ impl Accel {
                         } else if rejected & bit != 0 {
                             None
                         } else {
-                            bits(rays & !(1u64 << first))
-                                .find_map(|r| node.lane_enter(lane, &packet.box_ray[r], tmax[r]).map(|near| (r, near)))
+                            // The first other ray that enters, four rays tested at a time;
+                            // its entry distance again by the one-ray test (the same bits).
+                            let next = packet.reach(node, lane, rays & !(1u64 << first), tmax, true);
+                            (next != 0)
+                                .then(|| next.trailing_zeros() as usize)
+                                .and_then(|r| node.lane_enter(lane, &packet.box_ray(r), tmax[r]).map(|near| (r, near)))
                         };
                         if let Some((r, near)) = entered {
                             inner[inner_count] = (near, child, rays & !((1u64 << r) - 1));
@@ -561,7 +695,7 @@ mod tests {
                 packet.push(origin, *d, f32::INFINITY);
             }
             let mut hits = [None; PACKET_RAYS];
-            accel.closest_hits(&packet, &mut hits);
+            accel.closest_hits(&mut packet, &mut hits);
             for (i, d) in dirs.iter().enumerate() {
                 assert_eq!(hits[i], accel.closest_hit(origin, *d, f32::INFINITY), "ray {i}, spread {spread}");
                 assert!(hits[i].is_some(), "a closed room is hit everywhere");
@@ -584,7 +718,7 @@ mod tests {
                 rays.push((p, d / dist, dist - 1e-3));
                 packet.push(p, d / dist, dist - 1e-3);
             }
-            let blocked = accel.occluded_packet(&packet);
+            let blocked = accel.occluded_packet(&mut packet);
             let expected: u64 = rays
                 .iter()
                 .enumerate()
@@ -609,6 +743,7 @@ mod tests {
                 let origin = Vec3::new(0.3 + (i % 8) as f32 * 0.01, 2.5, 1.4 + (i / 8) as f32 * 0.01);
                 packet.push(origin, *d, tmax);
             }
+            packet.prepare();
             let bounds = PacketBounds::new(&packet, packet.all(), &packet.tmax);
             for node in nodes {
                 let lanes = bounds.rejects_lanes(node);
@@ -619,7 +754,7 @@ mod tests {
                     if scalar {
                         rejected += 1;
                         for r in 0..packet.len() {
-                            assert!(node.lane_enter(lane, &packet.box_ray[r], tmax).is_none(), "ray {r} enters");
+                            assert!(node.lane_enter(lane, &packet.box_ray(r), tmax).is_none(), "ray {r} enters");
                         }
                     } else {
                         kept += 1;
@@ -631,14 +766,59 @@ mod tests {
     }
 
     #[test]
+    fn four_ray_box_tests_and_bounds_are_the_one_ray_ones() {
+        let accel = room();
+        let nodes = accel.wide_nodes().expect("a room has triangles");
+        let (mut entered, mut missed) = (0, 0);
+        for (len, spread, seed) in [(PACKET_RAYS, 0.3, 0), (37, 4.0, 1), (5, 40.0, 2)] {
+            let mut packet = RayPacket::new();
+            for (i, d) in directions(len, spread, seed).iter().enumerate() {
+                let origin = Vec3::new(0.3 + (i % 8) as f32 * 0.2, 2.5 - (i / 8) as f32 * 0.1, 1.4);
+                // Axis-parallel rays too: a zero component, an infinite reciprocal.
+                let d = if i % 9 == 0 { Vec3::new(0.0, 0.0, -1.0) } else { *d };
+                packet.push(origin, d, 1.0 + (i % 5) as f32);
+            }
+            packet.prepare();
+            let tmax = packet.tmax;
+            // Every ray, every other ray, and a scattered few.
+            for rays in [packet.all(), packet.all() & 0x5555_5555_5555_5555, packet.all() & 0x8000_0100_2000_0003] {
+                for node in nodes {
+                    for lane in (0..LANES).filter(|&lane| node.child(lane).is_some()) {
+                        let one_by_one: u64 = bits(rays)
+                            .filter(|&r| node.lane_enter(lane, &packet.box_ray(r), tmax[r]).is_some())
+                            .map(|r| 1u64 << r)
+                            .sum();
+                        assert_eq!(packet.reach(node, lane, rays, &tmax, false), one_by_one);
+                        let lowest = one_by_one & one_by_one.wrapping_neg();
+                        assert_eq!(packet.reach(node, lane, rays, &tmax, true), lowest);
+                        entered += one_by_one.count_ones();
+                        missed += (rays & !one_by_one).count_ones();
+                    }
+                }
+                let b = PacketBounds::new(&packet, rays, &tmax);
+                let rays_of = || bits(rays).map(|r| packet.box_ray(r));
+                let fold = |f: fn(Vec3, Vec3) -> Vec3, start: Vec3, part: fn(&BoxRay) -> Vec3| {
+                    rays_of().fold(start, |acc, ray| f(acc, part(&ray)))
+                };
+                assert_eq!(b.origin_min, fold(Vec3::min, Vec3::INFINITY, BoxRay::origin));
+                assert_eq!(b.origin_max, fold(Vec3::max, Vec3::NEG_INFINITY, BoxRay::origin));
+                assert_eq!(b.inv_min, fold(Vec3::min, Vec3::INFINITY, BoxRay::inv_direction));
+                assert_eq!(b.inv_max, fold(Vec3::max, Vec3::NEG_INFINITY, BoxRay::inv_direction));
+                assert_eq!(b.tmax, bits(rays).map(|r| tmax[r]).fold(0.0, f32::max));
+            }
+        }
+        assert!(entered > 0 && missed > 0, "both answers occur ({entered} entered, {missed} missed)");
+    }
+
+    #[test]
     fn an_empty_scene_and_an_empty_packet_hit_nothing() {
         let accel = Accel::build(&empty_scene());
         let mut packet = RayPacket::new();
-        assert_eq!(accel.occluded_packet(&packet), 0);
+        assert_eq!(accel.occluded_packet(&mut packet), 0);
         packet.push(Vec3::ZERO, Vec3::X, 10.0);
         let mut hits = [Some(Hit { t: 1.0, triangle: 0, b1: 0.0, b2: 0.0 })];
-        accel.closest_hits(&packet, &mut hits);
+        accel.closest_hits(&mut packet, &mut hits);
         assert_eq!(hits, [None]);
-        assert_eq!(accel.occluded_packet(&packet), 0);
+        assert_eq!(accel.occluded_packet(&mut packet), 0);
     }
 }

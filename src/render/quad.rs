@@ -28,6 +28,9 @@ pub(super) struct QuadRays {
     shear: [[f32; PACKET_RAYS]; 3],
     /// The permutation of the first ray of each quad, packed by [`pack`].
     k: [u8; QUADS],
+    /// The permutation of each ray, packed: for the scalar test of a ray
+    /// ([`QuadRays::sheared`]).
+    ray_k: [u8; PACKET_RAYS],
     /// Bit `q`: every ray pushed to quad `q` has the permutation `k[q]`.
     shared: u16,
 }
@@ -61,13 +64,16 @@ impl Default for QuadRays {
             origin: [[0.0; PACKET_RAYS]; 3],
             shear: [[0.0; PACKET_RAYS]; 3],
             k: [pack([0, 1, 2]); QUADS],
+            ray_k: [pack([0, 1, 2]); PACKET_RAYS],
             shared: 0,
         }
     }
 }
 
 impl QuadRays {
-    /// Stores `ray` as ray `index` of the packet; rays are pushed in index order from 0.
+    /// Stores `ray` as ray `index` of the packet; rays are stored in index order from 0. What
+    /// [`QuadRays::prepare`] does four rays at a time, and what it is tested against.
+    #[cfg(any(test, not(target_arch = "x86_64")))]
     #[inline(always)]
     pub(super) fn set(&mut self, index: usize, ray: &ShearedRay) {
         let (origin, k, shear): (Vec3A, [usize; 3], Vec3) = ray.parts();
@@ -76,12 +82,120 @@ impl QuadRays {
             self.shear[axis][index] = shear[axis];
         }
         let (quad, bit, k) = (index / 4, 1u16 << (index / 4), pack(k));
+        self.ray_k[index] = k;
         if index % 4 == 0 {
             self.k[quad] = k;
             self.shared |= bit;
         } else if self.k[quad] != k {
             self.shared &= !bit;
         }
+    }
+
+    /// Prepares quad `quad` from its rays' origins and directions (structure of arrays; unit
+    /// directions without `-0.0` components): lanes `valid` (bits 0..4, lane 0 among them) are
+    /// rays, the others are ignored. The result is [`QuadRays::set`] of each ray's
+    /// [`ShearedRay::new`], bit for bit: SSE on x86-64, four rays' permutations chosen by lane
+    /// masks with the scalar code's comparisons, and the same divisions and products.
+    #[inline(always)]
+    pub(super) fn prepare(
+        &mut self,
+        quad: usize,
+        origin: &[[f32; PACKET_RAYS]; 3],
+        direction: &[[f32; PACKET_RAYS]; 3],
+        valid: u32,
+    ) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            self.prepare_sse(quad, origin, direction, valid);
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            for lane in (0..4).filter(|lane| valid >> lane & 1 == 1) {
+                let r = quad * 4 + lane;
+                let ray = ShearedRay::new(Vec3::from(origin.map(|a| a[r])), Vec3::from(direction.map(|a| a[r])));
+                self.set(r, &ray);
+            }
+        }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn prepare_sse(
+        &mut self,
+        quad: usize,
+        origin: &[[f32; PACKET_RAYS]; 3],
+        direction: &[[f32; PACKET_RAYS]; 3],
+        valid: u32,
+    ) {
+        use std::arch::x86_64::{
+            __m128, _mm_and_ps, _mm_andnot_ps, _mm_cmpgt_ps, _mm_cmplt_ps, _mm_div_ps, _mm_loadu_ps, _mm_movemask_ps,
+            _mm_mul_ps, _mm_or_ps, _mm_set1_ps, _mm_setzero_ps, _mm_storeu_ps,
+        };
+        let at = quad * 4;
+        // SAFETY: SSE and SSE2 are in every x86-64 CPU (the target's baseline), and each load or
+        // store touches the four floats `at..at + 4` of a `PACKET_RAYS` array (the slice index
+        // checks `at + 4 <= PACKET_RAYS`).
+        let (x_major, y_major, negative) = unsafe {
+            let load = |a: &[f32; PACKET_RAYS]| _mm_loadu_ps(a[at..at + 4].as_ptr());
+            let select = |m: __m128, a: __m128, b: __m128| _mm_or_ps(_mm_and_ps(m, a), _mm_andnot_ps(m, b));
+            let o = [load(&origin[0]), load(&origin[1]), load(&origin[2])];
+            let d = [load(&direction[0]), load(&direction[1]), load(&direction[2])];
+            let abs = |v: __m128| _mm_andnot_ps(_mm_set1_ps(-0.0), v);
+            let (ax, ay, az) = (abs(d[0]), abs(d[1]), abs(d[2]));
+            // `ShearedRay::new`'s choice of kz: x if |x| > |y| and |x| > |z|, else y if
+            // |y| > |z| (and not |x| > |y|), else z.
+            let x_gt_y = _mm_cmpgt_ps(ax, ay);
+            let x_major = _mm_and_ps(x_gt_y, _mm_cmpgt_ps(ax, az));
+            let y_major = _mm_andnot_ps(x_gt_y, _mm_cmpgt_ps(ay, az));
+            // Component `(kz + shift) % 3` of `v`, per lane.
+            let pick = |v: &[__m128; 3], shift: usize| {
+                select(x_major, v[shift % 3], select(y_major, v[(1 + shift) % 3], v[(2 + shift) % 3]))
+            };
+            let dz = pick(&d, 0);
+            // kx = kz + 1 and ky = kz + 2 (mod 3), swapped where the dominant component is
+            // negative, to keep the winding.
+            let negative = _mm_cmplt_ps(dz, _mm_setzero_ps());
+            let permute = |v: &[__m128; 3]| {
+                let (next, after) = (pick(v, 1), pick(v, 2));
+                [select(negative, after, next), select(negative, next, after), pick(v, 0)]
+            };
+            let (po, pd) = (permute(&o), permute(&d));
+            let sz = _mm_div_ps(_mm_set1_ps(1.0), dz);
+            let shear = [_mm_mul_ps(pd[0], sz), _mm_mul_ps(pd[1], sz), sz];
+            for axis in 0..3 {
+                _mm_storeu_ps(self.origin[axis][at..at + 4].as_mut_ptr(), po[axis]);
+                _mm_storeu_ps(self.shear[axis][at..at + 4].as_mut_ptr(), shear[axis]);
+            }
+            (_mm_movemask_ps(x_major), _mm_movemask_ps(y_major), _mm_movemask_ps(negative))
+        };
+        let mut same = true;
+        for lane in 0..4 {
+            let kz = if x_major >> lane & 1 == 1 {
+                0
+            } else if y_major >> lane & 1 == 1 {
+                1
+            } else {
+                2
+            };
+            let (kx, ky) = ((kz + 1) % 3, (kz + 2) % 3);
+            let k = pack(if negative >> lane & 1 == 1 { [ky, kx, kz] } else { [kx, ky, kz] });
+            self.ray_k[at + lane] = k;
+            if lane == 0 {
+                self.k[quad] = k;
+            } else if valid >> lane & 1 == 1 {
+                same &= k == self.k[quad];
+            }
+        }
+        let bit = 1u16 << quad;
+        if same { self.shared |= bit } else { self.shared &= !bit }
+    }
+
+    /// Ray `r`, from origin `origin`, in the form of the scalar test: what
+    /// [`ShearedRay::new`] gave, for a ray [prepared](QuadRays::prepare) with that origin.
+    #[inline(always)]
+    pub(super) fn sheared(&self, r: usize, origin: Vec3A) -> ShearedRay {
+        let shear = Vec3::new(self.shear[0][r], self.shear[1][r], self.shear[2][r]);
+        ShearedRay::from_parts(origin, unpack(self.ray_k[r]), shear)
     }
 
     /// Whether the rays of quad `quad` share one permutation (else test them one by one).
@@ -279,6 +393,57 @@ mod tests {
                 prop_assert_eq!(scalar.map(|h| [h.0, h.1, h.2].map(f32::to_bits)), vector.map(|h| [h.0, h.1, h.2].map(f32::to_bits)));
                 prop_assert_eq!(plain.hit & bit, got.hit & bit);
             }
+        }
+    }
+
+    /// A direction from `pick`: an axis (either sign), a diagonal with tied components, or a
+    /// general direction, so ties between the components and zero components occur.
+    fn direction() -> impl Strategy<Value = Vec3> {
+        (0usize..4, vec3(), -1.0f32..1.0).prop_map(|(kind, v, s)| {
+            let d = match kind {
+                0 => [Vec3::X, Vec3::Y, Vec3::Z][(s.abs() * 2.99) as usize] * s.signum(),
+                1 => Vec3::new(s, s, v.z),
+                2 => Vec3::new(v.x, -v.x, v.x),
+                _ => v,
+            };
+            crate::render::accel::positive_zeros(d.normalize_or(Vec3::Z))
+        })
+    }
+
+    proptest! {
+        /// Preparing a quad four rays at a time gives each valid ray the permuted origin,
+        /// shear and permutation of `ShearedRay::new`, bit for bit, and the quad the same
+        /// shared flag as storing the rays one by one.
+        #[test]
+        fn prepared_quads_are_the_scalar_rays(
+            origins in [vec3(), vec3(), vec3(), vec3()],
+            directions in [direction(), direction(), direction(), direction()],
+            valid in (0u32..8).prop_map(|v| v << 1 | 1),
+            quad in 0usize..QUADS,
+        ) {
+            let (mut origin, mut direction) = ([[0.0f32; PACKET_RAYS]; 3], [[0.0f32; PACKET_RAYS]; 3]);
+            let (mut prepared, mut scalar) = (QuadRays::default(), QuadRays::default());
+            for lane in 0..4 {
+                let r = quad * 4 + lane;
+                for axis in 0..3 {
+                    origin[axis][r] = origins[lane][axis];
+                    direction[axis][r] = directions[lane][axis];
+                }
+                if valid >> lane & 1 == 1 {
+                    scalar.set(r, &ShearedRay::new(origins[lane], directions[lane]));
+                }
+            }
+            prepared.prepare(quad, &origin, &direction, valid);
+            for lane in (0..4).filter(|lane| valid >> lane & 1 == 1) {
+                let r = quad * 4 + lane;
+                let bits = |q: &QuadRays| (q.origin.map(|a| a[r].to_bits()), q.shear.map(|a| a[r].to_bits()), q.ray_k[r]);
+                prop_assert_eq!(bits(&prepared), bits(&scalar), "lane {}", lane);
+                let again = prepared.sheared(r, Vec3A::from(origins[lane])).parts();
+                let new = ShearedRay::new(origins[lane], directions[lane]).parts();
+                prop_assert_eq!((again.0.to_array(), again.1, again.2.to_array()), (new.0.to_array(), new.1, new.2.to_array()));
+            }
+            prop_assert_eq!(prepared.k[quad], scalar.k[quad]);
+            prop_assert_eq!(prepared.is_shared(quad), scalar.is_shared(quad));
         }
     }
 

@@ -22,6 +22,8 @@
 use glam::{Vec3, Vec3A};
 use obvhs::cwbvh::CwBvh;
 
+use super::packet::PACKET_RAYS;
+
 /// Children per node: obvhs' CWBVH is eight wide.
 pub(super) const LANES: usize = 8;
 
@@ -70,13 +72,22 @@ impl BoxRay {
         BoxRay { origin: origin.to_array(), inv: inv.to_array(), negative: [inv.x < 0.0, inv.y < 0.0, inv.z < 0.0] }
     }
 
+    /// The ray with origin `origin` and reciprocal direction `inv` (as [`BoxRay::new`] computes
+    /// it): for rays whose reciprocals were computed four at a time.
+    #[inline(always)]
+    pub(super) fn from_parts(origin: [f32; 3], inv: [f32; 3]) -> BoxRay {
+        BoxRay { origin, inv, negative: inv.map(|i| i < 0.0) }
+    }
+
     /// The ray's origin.
+    #[cfg(any(test, not(target_arch = "x86_64")))]
     #[inline(always)]
     pub(super) fn origin(&self) -> Vec3 {
         Vec3::from_array(self.origin)
     }
 
     /// The ray's reciprocal direction (`+inf` for a zero component).
+    #[cfg(any(test, not(target_arch = "x86_64")))]
     #[inline(always)]
     pub(super) fn inv_direction(&self) -> Vec3 {
         Vec3::from_array(self.inv)
@@ -177,6 +188,70 @@ impl WideNode {
             far = smaller(far, (second[lane] - o) * inv * FAR_SCALE);
         }
         (near <= far).then_some(near)
+    }
+
+    /// [`WideNode::lane_enter`] for the four rays `at..at + 4` of a packet's structure of arrays
+    /// (origins, reciprocal directions as [`BoxRay::new`] computes them, `tmax`): bit `i` set
+    /// where ray `at + i` enters child `lane`. The same arithmetic per ray, bit for bit: SSE on
+    /// x86-64, where a ray's near and far planes are picked by the sign of its reciprocal.
+    #[inline(always)]
+    pub(super) fn lane_enters(
+        &self,
+        lane: usize,
+        origin: &[[f32; PACKET_RAYS]; 3],
+        inv: &[[f32; PACKET_RAYS]; 3],
+        tmax: &[f32; PACKET_RAYS],
+        at: usize,
+    ) -> u32 {
+        #[cfg(target_arch = "x86_64")]
+        {
+            self.lane_enters_sse(lane, origin, inv, tmax, at)
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            let mut mask = 0;
+            for i in 0..4 {
+                let r = at + i;
+                let ray = BoxRay::from_parts(origin.map(|a| a[r]), inv.map(|a| a[r]));
+                mask |= u32::from(self.lane_enter(lane, &ray, tmax[r]).is_some()) << i;
+            }
+            mask
+        }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn lane_enters_sse(
+        &self,
+        lane: usize,
+        origin: &[[f32; PACKET_RAYS]; 3],
+        inv: &[[f32; PACKET_RAYS]; 3],
+        tmax: &[f32; PACKET_RAYS],
+        at: usize,
+    ) -> u32 {
+        use std::arch::x86_64::{
+            __m128, _mm_and_ps, _mm_andnot_ps, _mm_cmple_ps, _mm_cmplt_ps, _mm_loadu_ps, _mm_max_ps, _mm_min_ps,
+            _mm_movemask_ps, _mm_mul_ps, _mm_or_ps, _mm_set1_ps, _mm_setzero_ps, _mm_sub_ps,
+        };
+        // SAFETY: SSE and SSE2 are in every x86-64 CPU (the target's baseline), and each load
+        // touches the four floats `at..at + 4` of a `PACKET_RAYS` array (the slice index checks
+        // `at + 4 <= PACKET_RAYS`).
+        unsafe {
+            let load = |a: &[f32; PACKET_RAYS]| _mm_loadu_ps(a[at..at + 4].as_ptr());
+            let select = |m: __m128, a: __m128, b: __m128| _mm_or_ps(_mm_and_ps(m, a), _mm_andnot_ps(m, b));
+            let mut near = _mm_setzero_ps();
+            let mut far = load(tmax);
+            for axis in 0..3 {
+                let (o, i) = (load(&origin[axis]), load(&inv[axis]));
+                let (lo, hi) = (_mm_set1_ps(self.lo[axis][lane]), _mm_set1_ps(self.hi[axis][lane]));
+                let negative = _mm_cmplt_ps(i, _mm_setzero_ps());
+                let (first, second) = (select(negative, hi, lo), select(negative, lo, hi));
+                near = _mm_max_ps(_mm_mul_ps(_mm_sub_ps(first, o), i), near);
+                let t_second = _mm_mul_ps(_mm_sub_ps(second, o), i);
+                far = _mm_min_ps(_mm_mul_ps(t_second, _mm_set1_ps(FAR_SCALE)), far);
+            }
+            _mm_movemask_ps(_mm_cmple_ps(near, far)) as u32
+        }
     }
 
     /// Child `lane`, `None` for an empty lane.
