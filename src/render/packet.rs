@@ -127,9 +127,11 @@ impl RayPacket {
             // Lanes past the last ray hold stale or zero values: every test masks them out.
             let valid = if at + 4 <= self.len { 0xF } else { (1u32 << (self.len - at)) - 1 };
             for axis in 0..3 {
-                for r in at..at + 4 {
-                    // One division per ray, as `BoxRay::new`'s vector division gives it.
-                    self.inv[axis][r] = 1.0 / self.direction[axis][r];
+                // One division per ray, as `BoxRay::new`'s vector division gives it (slices
+                // of four: one `divps`).
+                let (direction, inv) = (&self.direction[axis][at..at + 4], &mut self.inv[axis][at..at + 4]);
+                for (inv, d) in inv.iter_mut().zip(direction) {
+                    *inv = 1.0 / d;
                 }
             }
             self.quads.prepare(quad, &self.origin, &self.direction, valid);
@@ -140,7 +142,9 @@ impl RayPacket {
     /// Ray `r` as the box test of a single ray takes it.
     #[inline(always)]
     fn box_ray(&self, r: usize) -> BoxRay {
-        BoxRay::from_parts(self.origin.map(|a| a[r]), self.inv.map(|a| a[r]))
+        // Element by element: `map` on the arrays would copy them whole first.
+        let (o, i) = (&self.origin, &self.inv);
+        BoxRay::from_parts([o[0][r], o[1][r], o[2][r]], [i[0][r], i[1][r], i[2][r]])
     }
 
     /// Ray `r`'s origin.

@@ -49,7 +49,7 @@ pub(super) struct QuadHits {
 /// An axis permutation in one byte, two bits per index (a compare of three `usize`s per pushed
 /// ray was a fifth of a shadow packet's time).
 #[inline(always)]
-fn pack([kx, ky, kz]: [usize; 3]) -> u8 {
+const fn pack([kx, ky, kz]: [usize; 3]) -> u8 {
     (kx | ky << 2 | kz << 4) as u8
 }
 
@@ -112,7 +112,8 @@ impl QuadRays {
         {
             for lane in (0..4).filter(|lane| valid >> lane & 1 == 1) {
                 let r = quad * 4 + lane;
-                let ray = ShearedRay::new(Vec3::from(origin.map(|a| a[r])), Vec3::from(direction.map(|a| a[r])));
+                let at = |a: &[[f32; PACKET_RAYS]; 3]| Vec3::new(a[0][r], a[1][r], a[2][r]);
+                let ray = ShearedRay::new(at(origin), at(direction));
                 self.set(r, &ray);
             }
         }
@@ -168,26 +169,23 @@ impl QuadRays {
             }
             (_mm_movemask_ps(x_major), _mm_movemask_ps(y_major), _mm_movemask_ps(negative))
         };
-        let mut same = true;
+        // Per lane, by table (branches on the lane masks mispredicted): index 2 kz + negative.
+        const PACKED: [u8; 6] =
+            [pack([1, 2, 0]), pack([2, 1, 0]), pack([2, 0, 1]), pack([0, 2, 1]), pack([0, 1, 2]), pack([1, 0, 2])];
         for lane in 0..4 {
-            let kz = if x_major >> lane & 1 == 1 {
-                0
-            } else if y_major >> lane & 1 == 1 {
-                1
-            } else {
-                2
-            };
-            let (kx, ky) = ((kz + 1) % 3, (kz + 2) % 3);
-            let k = pack(if negative >> lane & 1 == 1 { [ky, kx, kz] } else { [kx, ky, kz] });
-            self.ray_k[at + lane] = k;
-            if lane == 0 {
-                self.k[quad] = k;
-            } else if valid >> lane & 1 == 1 {
-                same &= k == self.k[quad];
-            }
+            let bit = |m: i32| (m >> lane & 1) as usize;
+            let kz = 2 - 2 * bit(x_major) - bit(y_major);
+            self.ray_k[at + lane] = PACKED[2 * kz + bit(negative)];
         }
+        self.k[quad] = self.ray_k[at];
+        // Shared: every valid lane chose the same dominant axis and sign.
+        let uniform = |m: i32| m as u32 & valid == 0 || m as u32 & valid == valid;
         let bit = 1u16 << quad;
-        if same { self.shared |= bit } else { self.shared &= !bit }
+        if uniform(x_major) && uniform(y_major) && uniform(negative) {
+            self.shared |= bit;
+        } else {
+            self.shared &= !bit;
+        }
     }
 
     /// Ray `r`, from origin `origin`, in the form of the scalar test: what

@@ -212,7 +212,8 @@ impl WideNode {
             let mut mask = 0;
             for i in 0..4 {
                 let r = at + i;
-                let ray = BoxRay::from_parts(origin.map(|a| a[r]), inv.map(|a| a[r]));
+                let at = |a: &[[f32; PACKET_RAYS]; 3]| [a[0][r], a[1][r], a[2][r]];
+                let ray = BoxRay::from_parts(at(origin), at(inv));
                 mask |= u32::from(self.lane_enter(lane, &ray, tmax[r]).is_some()) << i;
             }
             mask
