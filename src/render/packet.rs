@@ -158,12 +158,8 @@ impl RayPacket {
     #[inline(always)]
     fn reach(&self, node: &WideNode, lane: usize, rays: u64, tmax: &[f32; PACKET_RAYS], first_only: bool) -> u64 {
         let mut reach = 0u64;
-        let mut rest = rays;
-        while rest != 0 {
-            let quad = rest.trailing_zeros() as usize / 4;
-            rest &= !(0xFu64 << (quad * 4));
-            let lanes = (rays >> (quad * 4)) & 0xF;
-            let entered = u64::from(node.lane_enters(lane, &self.origin, &self.inv, tmax, quad * 4)) & lanes;
+        for (quad, lanes) in quads(rays) {
+            let entered = u64::from(node.lane_enters(lane, &self.origin, &self.inv, tmax, quad * 4) & lanes);
             if entered != 0 {
                 if first_only {
                     return (entered & entered.wrapping_neg()) << (quad * 4);
@@ -186,11 +182,7 @@ impl RayPacket {
         tmax: &mut [f32; PACKET_RAYS],
         mut found: impl FnMut(usize, (f32, f32, f32), &mut [f32; PACKET_RAYS]),
     ) {
-        let mut rest = rays;
-        while rest != 0 {
-            let quad = rest.trailing_zeros() as usize / 4;
-            rest &= !(0xFu64 << (quad * 4));
-            let lanes = ((rays >> (quad * 4)) & 0xF) as u32;
+        for (quad, lanes) in quads(rays) {
             let one_by_one = if self.quads.is_shared(quad) {
                 let quad_hits = self.quads.intersect(quad, lanes, tri, 0.0, tmax);
                 for lane in bits(u64::from(quad_hits.hit)) {
@@ -316,11 +308,9 @@ impl PacketBounds {
             let mut lo = [inf; 6];
             let mut hi = [neg_inf; 6];
             let mut far = zero;
-            let mut rest = rays;
-            while rest != 0 {
-                let at = (rest.trailing_zeros() as usize / 4) * 4;
-                rest &= !(0xFu64 << at);
-                let lanes = _mm_set1_epi32(((rays >> at) & 0xF) as i32);
+            for (quad, lanes) in quads(rays) {
+                let at = quad * 4;
+                let lanes = _mm_set1_epi32(lanes as i32);
                 let m = _mm_castsi128_ps(_mm_cmpeq_epi32(_mm_and_si128(lanes, lane_bits), lane_bits));
                 let load = |a: &[f32; PACKET_RAYS]| _mm_loadu_ps(a[at..at + 4].as_ptr());
                 for (k, values) in packet.origin.iter().chain(&packet.inv).enumerate() {
@@ -463,6 +453,20 @@ fn bits(mut mask: u64) -> impl Iterator<Item = usize> {
             let i = mask.trailing_zeros() as usize;
             mask &= mask - 1;
             i
+        })
+    })
+}
+
+/// The quads (rays `4 q..4 q + 4`) holding a ray of `mask`, lowest first, each with the bits of
+/// its rays in `mask` (bits 0..4).
+#[inline(always)]
+fn quads(mask: u64) -> impl Iterator<Item = (usize, u32)> {
+    let mut rest = mask;
+    std::iter::from_fn(move || {
+        (rest != 0).then(|| {
+            let quad = rest.trailing_zeros() as usize / 4;
+            rest &= !(0xFu64 << (quad * 4));
+            (quad, ((mask >> (quad * 4)) & 0xF) as u32)
         })
     })
 }
