@@ -40,6 +40,8 @@ mod quad;
 mod reach;
 mod refine;
 pub mod shade;
+#[cfg(target_arch = "x86_64")]
+mod sse;
 pub mod test_util;
 mod tile;
 mod visibility_filter;

@@ -294,15 +294,14 @@ impl PacketBounds {
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
     fn gather_sse(&mut self, packet: &RayPacket, rays: u64, tmax: &[f32; PACKET_RAYS]) {
+        use super::sse::{load, select};
         use std::arch::x86_64::{
-            __m128, _mm_and_ps, _mm_and_si128, _mm_andnot_ps, _mm_castsi128_ps, _mm_cmpeq_epi32, _mm_loadu_ps,
-            _mm_max_ps, _mm_min_ps, _mm_or_ps, _mm_set_epi32, _mm_set1_epi32, _mm_set1_ps, _mm_storeu_ps,
+            __m128, _mm_and_si128, _mm_castsi128_ps, _mm_cmpeq_epi32, _mm_max_ps, _mm_min_ps, _mm_set_epi32,
+            _mm_set1_epi32, _mm_set1_ps, _mm_storeu_ps,
         };
-        // SAFETY: SSE and SSE2 are in every x86-64 CPU (the target's baseline), and each load
-        // or store touches the four floats `at..at + 4` of a `PACKET_RAYS` array (the slice
-        // index checks `at + 4 <= PACKET_RAYS`) or a four-float array.
+        // SAFETY: SSE and SSE2 are in every x86-64 CPU (the target's baseline), and each store
+        // touches a four-float array.
         unsafe {
-            let select = |m: __m128, a: __m128, b: __m128| _mm_or_ps(_mm_and_ps(m, a), _mm_andnot_ps(m, b));
             let (inf, neg_inf, zero) = (_mm_set1_ps(f32::INFINITY), _mm_set1_ps(f32::NEG_INFINITY), _mm_set1_ps(0.0));
             let lane_bits = _mm_set_epi32(8, 4, 2, 1);
             let mut lo = [inf; 6];
@@ -312,13 +311,12 @@ impl PacketBounds {
                 let at = quad * 4;
                 let lanes = _mm_set1_epi32(lanes as i32);
                 let m = _mm_castsi128_ps(_mm_cmpeq_epi32(_mm_and_si128(lanes, lane_bits), lane_bits));
-                let load = |a: &[f32; PACKET_RAYS]| _mm_loadu_ps(a[at..at + 4].as_ptr());
                 for (k, values) in packet.origin.iter().chain(&packet.inv).enumerate() {
-                    let v = load(values);
+                    let v = load(values, at);
                     lo[k] = _mm_min_ps(lo[k], select(m, v, inf));
                     hi[k] = _mm_max_ps(hi[k], select(m, v, neg_inf));
                 }
-                far = _mm_max_ps(far, select(m, load(tmax), zero));
+                far = _mm_max_ps(far, select(m, load(tmax, at), zero));
             }
             let lanes = |v: __m128| {
                 let mut out = [0.0f32; 4];

@@ -16,9 +16,6 @@ use glam::{Vec3, Vec3A};
 use super::accel::ShearedRay;
 use super::packet::PACKET_RAYS;
 
-/// Quads in a packet.
-const QUADS: usize = PACKET_RAYS / 4;
-
 /// The sheared rays of a packet in structure of arrays, four to a quad.
 #[derive(Clone)]
 pub(super) struct QuadRays {
@@ -26,12 +23,10 @@ pub(super) struct QuadRays {
     origin: [[f32; PACKET_RAYS]; 3],
     /// Per ray, the shear `(Sx, Sy, Sz)`.
     shear: [[f32; PACKET_RAYS]; 3],
-    /// The permutation of the first ray of each quad, packed by [`pack`].
-    k: [u8; QUADS],
-    /// The permutation of each ray, packed: for the scalar test of a ray
-    /// ([`QuadRays::sheared`]).
+    /// The permutation of each ray, packed by [`pack`]: a quad's first ray's for the quad's
+    /// shared test, each ray's for its scalar test ([`QuadRays::sheared`]).
     ray_k: [u8; PACKET_RAYS],
-    /// Bit `q`: every ray pushed to quad `q` has the permutation `k[q]`.
+    /// Bit `q`: every ray pushed to quad `q` has the permutation of its first ray.
     shared: u16,
 }
 
@@ -63,7 +58,6 @@ impl Default for QuadRays {
         QuadRays {
             origin: [[0.0; PACKET_RAYS]; 3],
             shear: [[0.0; PACKET_RAYS]; 3],
-            k: [pack([0, 1, 2]); QUADS],
             ray_k: [pack([0, 1, 2]); PACKET_RAYS],
             shared: 0,
         }
@@ -84,9 +78,8 @@ impl QuadRays {
         let (quad, bit, k) = (index / 4, 1u16 << (index / 4), pack(k));
         self.ray_k[index] = k;
         if index % 4 == 0 {
-            self.k[quad] = k;
             self.shared |= bit;
-        } else if self.k[quad] != k {
+        } else if self.ray_k[quad * 4] != k {
             self.shared &= !bit;
         }
     }
@@ -128,17 +121,17 @@ impl QuadRays {
         direction: &[[f32; PACKET_RAYS]; 3],
         valid: u32,
     ) {
+        use super::sse::select;
         use std::arch::x86_64::{
-            __m128, _mm_and_ps, _mm_andnot_ps, _mm_cmpgt_ps, _mm_cmplt_ps, _mm_div_ps, _mm_loadu_ps, _mm_movemask_ps,
-            _mm_mul_ps, _mm_or_ps, _mm_set1_ps, _mm_setzero_ps, _mm_storeu_ps,
+            __m128, _mm_and_ps, _mm_andnot_ps, _mm_cmpgt_ps, _mm_cmplt_ps, _mm_div_ps, _mm_movemask_ps, _mm_mul_ps,
+            _mm_set1_ps, _mm_setzero_ps, _mm_storeu_ps,
         };
         let at = quad * 4;
-        // SAFETY: SSE and SSE2 are in every x86-64 CPU (the target's baseline), and each load or
-        // store touches the four floats `at..at + 4` of a `PACKET_RAYS` array (the slice index
-        // checks `at + 4 <= PACKET_RAYS`).
+        // SAFETY: SSE and SSE2 are in every x86-64 CPU (the target's baseline), and each store
+        // touches the four floats `at..at + 4` of a `PACKET_RAYS` array (the slice index checks
+        // `at + 4 <= PACKET_RAYS`).
         let (x_major, y_major, negative) = unsafe {
-            let load = |a: &[f32; PACKET_RAYS]| _mm_loadu_ps(a[at..at + 4].as_ptr());
-            let select = |m: __m128, a: __m128, b: __m128| _mm_or_ps(_mm_and_ps(m, a), _mm_andnot_ps(m, b));
+            let load = |a: &[f32; PACKET_RAYS]| super::sse::load(a, at);
             let o = [load(&origin[0]), load(&origin[1]), load(&origin[2])];
             let d = [load(&direction[0]), load(&direction[1]), load(&direction[2])];
             let abs = |v: __m128| _mm_andnot_ps(_mm_set1_ps(-0.0), v);
@@ -177,7 +170,6 @@ impl QuadRays {
             let kz = 2 - 2 * bit(x_major) - bit(y_major);
             self.ray_k[at + lane] = PACKED[2 * kz + bit(negative)];
         }
-        self.k[quad] = self.ray_k[at];
         // Shared: every valid lane chose the same dominant axis and sign.
         let uniform = |m: i32| m as u32 & valid == 0 || m as u32 & valid == valid;
         let bit = 1u16 << quad;
@@ -235,17 +227,15 @@ impl QuadRays {
     ) -> QuadHits {
         use std::arch::x86_64::{
             __m128, _mm_add_ps, _mm_and_ps, _mm_andnot_ps, _mm_cmpeq_ps, _mm_cmpgt_ps, _mm_cmplt_ps, _mm_div_ps,
-            _mm_loadu_ps, _mm_movemask_ps, _mm_mul_ps, _mm_or_ps, _mm_set1_ps, _mm_setzero_ps, _mm_storeu_ps,
-            _mm_sub_ps,
+            _mm_movemask_ps, _mm_mul_ps, _mm_or_ps, _mm_set1_ps, _mm_setzero_ps, _mm_storeu_ps, _mm_sub_ps,
         };
-        let [kx, ky, kz] = unpack(self.k[quad]);
         let at = quad * 4;
+        let [kx, ky, kz] = unpack(self.ray_k[at]);
         let mut out = QuadHits { hit: 0, retry: 0, t: [0.0; 4], b1: [0.0; 4], b2: [0.0; 4] };
-        // SAFETY: SSE and SSE2 are in every x86-64 CPU (the target's baseline), and each load or
-        // store touches the four floats `at..at + 4` of a `PACKET_RAYS` array (`at + 4 <=
-        // PACKET_RAYS` as `quad < QUADS`) or of a four-float array.
+        // SAFETY: SSE and SSE2 are in every x86-64 CPU (the target's baseline), and each store
+        // touches a four-float array.
         unsafe {
-            let load = |a: &[f32; PACKET_RAYS]| _mm_loadu_ps(a[at..at + 4].as_ptr());
+            let load = |a: &[f32; PACKET_RAYS]| super::sse::load(a, at);
             let (ox, oy, oz) = (load(&self.origin[0]), load(&self.origin[1]), load(&self.origin[2]));
             let (sx, sy, sz) = (load(&self.shear[0]), load(&self.shear[1]), load(&self.shear[2]));
             // A corner relative to each origin, permuted, then sheared: (x, y, z) of the paper.
@@ -298,7 +288,7 @@ impl QuadRays {
         tmin: f32,
         tmax: &[f32; PACKET_RAYS],
     ) -> QuadHits {
-        let [kx, ky, kz] = unpack(self.k[quad]);
+        let [kx, ky, kz] = unpack(self.ray_k[quad * 4]);
         let mut out = QuadHits { hit: 0, retry: 0, t: [0.0; 4], b1: [0.0; 4], b2: [0.0; 4] };
         for lane in 0..4 {
             let r = quad * 4 + lane;
@@ -417,7 +407,7 @@ mod tests {
             origins in [vec3(), vec3(), vec3(), vec3()],
             directions in [direction(), direction(), direction(), direction()],
             valid in (0u32..8).prop_map(|v| v << 1 | 1),
-            quad in 0usize..QUADS,
+            quad in 0..PACKET_RAYS / 4,
         ) {
             let (mut origin, mut direction) = ([[0.0f32; PACKET_RAYS]; 3], [[0.0f32; PACKET_RAYS]; 3]);
             let (mut prepared, mut scalar) = (QuadRays::default(), QuadRays::default());
@@ -440,7 +430,6 @@ mod tests {
                 let new = ShearedRay::new(origins[lane], directions[lane]).parts();
                 prop_assert_eq!((again.0.to_array(), again.1, again.2.to_array()), (new.0.to_array(), new.1, new.2.to_array()));
             }
-            prop_assert_eq!(prepared.k[quad], scalar.k[quad]);
             prop_assert_eq!(prepared.is_shared(quad), scalar.is_shared(quad));
         }
     }

@@ -230,16 +230,15 @@ impl WideNode {
         tmax: &[f32; PACKET_RAYS],
         at: usize,
     ) -> u32 {
+        use super::sse::select;
         use std::arch::x86_64::{
-            __m128, _mm_and_ps, _mm_andnot_ps, _mm_cmple_ps, _mm_cmplt_ps, _mm_loadu_ps, _mm_max_ps, _mm_min_ps,
-            _mm_movemask_ps, _mm_mul_ps, _mm_or_ps, _mm_set1_ps, _mm_setzero_ps, _mm_sub_ps,
+            _mm_cmple_ps, _mm_cmplt_ps, _mm_max_ps, _mm_min_ps, _mm_movemask_ps, _mm_mul_ps, _mm_set1_ps,
+            _mm_setzero_ps, _mm_sub_ps,
         };
-        // SAFETY: SSE and SSE2 are in every x86-64 CPU (the target's baseline), and each load
-        // touches the four floats `at..at + 4` of a `PACKET_RAYS` array (the slice index checks
-        // `at + 4 <= PACKET_RAYS`).
+        // SAFETY: SSE and SSE2 are in every x86-64 CPU (the target's baseline); memory is read
+        // only through `sse::load`.
         unsafe {
-            let load = |a: &[f32; PACKET_RAYS]| _mm_loadu_ps(a[at..at + 4].as_ptr());
-            let select = |m: __m128, a: __m128, b: __m128| _mm_or_ps(_mm_and_ps(m, a), _mm_andnot_ps(m, b));
+            let load = |a: &[f32; PACKET_RAYS]| super::sse::load(a, at);
             let mut near = _mm_setzero_ps();
             let mut far = load(tmax);
             for axis in 0..3 {
