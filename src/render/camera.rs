@@ -227,6 +227,40 @@ impl Camera {
         (forward * self.focal_mm + right * x_mm + up * y_mm).normalize()
     }
 
+    /// [`Camera::ray_direction_in`] of the pixel positions `(px[k], py[k])`: the same
+    /// operations per ray, in plain loops over the rays that the compiler vectorises. One ray
+    /// at a time, each waited on its square root and division (perf: 8 % of a 4-spp image).
+    #[must_use]
+    #[inline(always)]
+    pub fn ray_directions_in<const N: usize>(
+        &self,
+        (forward, right, up): (Vec3, Vec3, Vec3),
+        px: &[f32; N],
+        py: &[f32; N],
+    ) -> [Vec3; N] {
+        let pitch_mm = self.pixel_pitch_um * 1e-3;
+        let (half_width, half_height) = (self.width_px as f32 * 0.5, self.height_px as f32 * 0.5);
+        let ahead = forward * self.focal_mm;
+        let mut v = [[0.0f32; N]; 3];
+        for axis in 0..3 {
+            for k in 0..N {
+                let x_mm = (px[k] - half_width) * pitch_mm;
+                let y_mm = (half_height - py[k]) * pitch_mm;
+                v[axis][k] = ahead[axis] + right[axis] * x_mm + up[axis] * y_mm;
+            }
+        }
+        // glam's `normalize`: `v * (1 / sqrt((x x + y y) + z z))`.
+        let mut length_recip = [0.0f32; N];
+        for (k, r) in length_recip.iter_mut().enumerate() {
+            *r = 1.0 / (v[0][k] * v[0][k] + v[1][k] * v[1][k] + v[2][k] * v[2][k]).sqrt();
+        }
+        let mut dirs = [Vec3::ZERO; N];
+        for (k, dir) in dirs.iter_mut().enumerate() {
+            *dir = Vec3::new(v[0][k], v[1][k], v[2][k]) * length_recip[k];
+        }
+        dirs
+    }
+
     /// Fraction of the on-axis sensor illuminance reaching continuous pixel coordinates
     /// `(px, py)`: `cos^4` of the off-axis angle with [`Camera::vignetting`], else 1.
     #[must_use]
@@ -342,6 +376,21 @@ mod tests {
         let r = c.box_pixels(Vec3::new(-50.0, -1.0, 0.0), Vec3::new(50.0, 10.0, 0.02)).unwrap();
         assert_eq!((r.x0, r.width, r.y0 + r.height), (0, 640, 480), "{r:?}");
         assert!(r.y0 > 240, "{r:?}");
+    }
+
+    /// `ray_directions_in` gives each pixel position the direction `ray_direction_in` gives
+    /// it alone, bit for bit.
+    #[test]
+    fn ray_directions_of_a_packet_are_those_of_each_position() {
+        let camera = crate::render::test_util::camera(1936, 1216, Vec3::new(1.0, 2.0, 1.2), 37.0, -12.0);
+        let basis = camera.basis();
+        let px: [f32; 64] = std::array::from_fn(|k| (k as f32 * 30.7) % 1936.0 + 0.25);
+        let py: [f32; 64] = std::array::from_fn(|k| (k as f32 * 19.1) % 1216.0 + 0.75);
+        let packet = camera.ray_directions_in(basis, &px, &py);
+        for k in 0..64 {
+            let alone = camera.ray_direction_in(basis, px[k], py[k]);
+            assert_eq!(packet[k].to_array().map(f32::to_bits), alone.to_array().map(f32::to_bits), "ray {k}");
+        }
     }
 
     proptest::proptest! {

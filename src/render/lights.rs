@@ -13,13 +13,13 @@
 //!   of it that gets through, estimated from stratified jittered area samples, one shadow ray
 //!   each (soft shadows): `sum f V / sum f`, `f = cos(theta) cos(theta') / d^2`.
 
-use std::cell::{Cell, RefCell};
+use std::cell::Cell;
 use std::f32::consts::PI;
 
 use glam::Vec3;
 
 use super::accel::{Accel, NO_TRIANGLE};
-use super::packet::{PACKET_RAYS, RayPacket};
+use super::packet::RayPacket;
 use super::reach::{LightReach, LightSource};
 use super::{GroupRgb, Sampler, Strata, group_index};
 use crate::scene::{Light, LightKind, Scene};
@@ -48,9 +48,9 @@ const EMITTER_BOUNDS_PAD_M: f32 = 1e-3;
 /// [`Blockers`] slot; a house has a few dozen, and further lights are traced without a hint.
 const BLOCKER_SLOTS: usize = 128;
 
-/// Fewest deferred shadow rays to one light that [`Blockers::resolve`] traces as packets;
-/// fewer go one by one, where a hint often answers with one triangle test.
-const MIN_SHADOW_PACKET: usize = 8;
+/// Fewest shadow rays to one light from a packet's hits that [`super::hit_batch`] traces as a
+/// packet; fewer go one by one, where a hint often answers with one triangle test.
+pub(super) const MIN_SHADOW_PACKET: usize = 8;
 
 /// Per light, the triangle that blocked the last shadow ray traced to it, tried first on the
 /// next one ([`Accel::blocker`] says why). A hint changes the work, not the answer; it is
@@ -74,48 +74,9 @@ impl Blockers {
         Blockers::default()
     }
 
-    /// Traces the deferred shadow rays of `queue` and zeroes the `add` of every blocked one.
-    /// Runs of at least [`MIN_SHADOW_PACKET`] rays to one light go through the BVH in packets;
-    /// shorter ones one by one, with this tile's hints. The queue is sorted by light, then
-    /// tag.
-    #[inline(always)]
-    pub(crate) fn resolve(&self, accel: &Accel, queue: &mut [DeferredShadow], packet: &mut RayPacket) {
-        queue.sort_unstable_by_key(|d| (d.ray.slot, d.tag));
-        let mut start = 0;
-        while start < queue.len() {
-            let slot = queue[start].ray.slot;
-            let mut end = start + 1;
-            while end < queue.len() && queue[end].ray.slot == slot {
-                end += 1;
-            }
-            let run = &mut queue[start..end];
-            if run.len() < MIN_SHADOW_PACKET {
-                for d in run.iter_mut() {
-                    if self.occluded(accel, slot as usize, d.ray.origin, d.ray.dir, d.ray.tmax) {
-                        d.add = Vec3::ZERO;
-                    }
-                }
-            } else {
-                for chunk in run.chunks_mut(PACKET_RAYS) {
-                    packet.clear();
-                    for d in chunk.iter() {
-                        packet.push(d.ray.origin, d.ray.dir, d.ray.tmax);
-                    }
-                    let blocked = accel.occluded_packet(packet);
-                    for (r, d) in chunk.iter_mut().enumerate() {
-                        if blocked >> r & 1 == 1 {
-                            d.add = Vec3::ZERO;
-                        }
-                    }
-                }
-            }
-            start = end;
-        }
-    }
-
     /// Whether the shadow ray to light `slot` is blocked, remembering what blocked it.
     #[inline(always)]
-    fn occluded(&self, accel: &Accel, slot: usize, origin: Vec3, dir: Vec3, tmax: f32) -> bool {
+    pub(super) fn occluded(&self, accel: &Accel, slot: usize, origin: Vec3, dir: Vec3, tmax: f32) -> bool {
         let Some(last) = self.last.get(slot) else { return accel.occluded(origin, dir, tmax) };
         match accel.blocker(origin, dir, tmax, last.get()) {
             Some(triangle) => {
@@ -127,53 +88,36 @@ impl Blockers {
     }
 }
 
-/// A shadow ray to one light: from `origin` along the unit `dir`, blocked by anything before
-/// `tmax`; `slot` is the light's [`Blockers`] slot.
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct ShadowRay {
-    pub slot: u32,
-    pub origin: Vec3,
-    pub dir: Vec3,
-    pub tmax: f32,
-}
-
-/// A shadow ray to a point or directional light that [`LightSet::direct_split`] left for its
-/// caller to trace: what the light adds to light group `group` where the ray is not blocked.
-///
-/// Why: from a tile's camera-ray hits, the rays to one such light are as coherent as the
-/// camera rays, and a packet traces them several times faster than one by one (docs/
-/// BENCHMARKS.md). Rect-light samples stay one at a time: spread over windows, they make
-/// small, scattered packets that were slower.
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct DeferredShadow {
-    pub ray: ShadowRay,
-    pub group: usize,
-    /// Irradiance (lux per channel) from `direct_split`; its caller may rescale it (to the
-    /// radiance it adds) before the ray is traced.
-    pub add: Vec3,
-    /// The caller's label (the pixel of a tile).
-    pub tag: u32,
+/// Who traces the shadow rays of the point and directional lights in
+/// [`LightSet::direct_split`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum PointLights {
+    /// `direct_split` traces them, one ray at a time, and counts their light.
+    Traced,
+    /// The caller lights the point with them, together with the other hits of its packet
+    /// ([`super::hit_batch`]): `direct_split` leaves them out and draws nothing for them.
+    Batched,
 }
 
 #[derive(Clone, Copy, Debug)]
 pub(super) struct PointLight {
     pub(super) position: Vec3,
-    rgb_cd: Vec3,
+    pub(super) rgb_cd: Vec3,
     /// Luminous intensity, cd.
-    luminous: f32,
-    group: usize,
+    pub(super) luminous: f32,
+    pub(super) group: usize,
     /// The room the scene puts it in.
     room: Option<u32>,
 }
 
 #[derive(Clone, Copy, Debug)]
-struct DirectionalLight {
+pub(super) struct DirectionalLight {
     /// Unit vector towards the light (opposite to its travel).
-    to_light: Vec3,
-    rgb_lux: Vec3,
+    pub(super) to_light: Vec3,
+    pub(super) rgb_lux: Vec3,
     /// Illuminance facing the light, lux.
-    luminous: f32,
-    group: usize,
+    pub(super) luminous: f32,
+    pub(super) group: usize,
 }
 
 /// A one-sided Lambertian rectangle.
@@ -251,7 +195,7 @@ impl RectShare {
 #[derive(Clone, Debug, Default)]
 pub struct LightSet {
     pub(super) points: Vec<PointLight>,
-    directionals: Vec<DirectionalLight>,
+    pub(super) directionals: Vec<DirectionalLight>,
     pub(crate) rects: Vec<RectLight>,
     /// Per group, the brightest radiance a white Lambertian surface gets from one light at a
     /// reference distance of 1 m (point: `I / pi`, directional: `E / pi`, rect: `L`); the unit
@@ -384,8 +328,19 @@ impl LightSet {
         sampler: &mut Sampler,
         blockers: &Blockers,
     ) -> GroupRgb {
-        let (other, rects) =
-            self.direct_split(accel, point, ng, ns, rect_samples, rect_strata, cull, sampler, blockers, false, None);
+        let (other, rects) = self.direct_split(
+            accel,
+            point,
+            ng,
+            ns,
+            rect_samples,
+            rect_strata,
+            cull,
+            sampler,
+            blockers,
+            false,
+            PointLights::Traced,
+        );
         [other[0] + rects.visible[0], other[1] + rects.visible[1]]
     }
 
@@ -394,10 +349,9 @@ impl LightSet {
     /// they would give unshadowed, which costs the closed form of every rect light in reach,
     /// the fully shadowed and culled ones too). The draws are those of `direct`.
     ///
-    /// With `defer`, the shadow rays to point and directional lights are not traced: each goes
-    /// into the queue with the irradiance it adds if unblocked, and the first part of the
-    /// answer leaves those lights out (the caller traces the queue in packets, as
-    /// [`DeferredShadow`] says).
+    /// With [`PointLights::Batched`], the point and directional lights are left out of the
+    /// first part (zero) and nothing is drawn for them: the caller lights the point with them
+    /// ([`super::hit_batch`]).
     #[allow(clippy::too_many_arguments)]
     #[must_use]
     #[inline(always)]
@@ -413,12 +367,16 @@ impl LightSet {
         sampler: &mut Sampler,
         blockers: &Blockers,
         unshadowed: bool,
-        defer: Option<&RefCell<Vec<DeferredShadow>>>,
+        point_lights: PointLights,
     ) -> (GroupRgb, RectShare) {
         // Only the lights that can reach the point's room ([`super::reach`]): a light left out
         // of the list is blocked by walls wherever it is sampled, so it adds nothing but cost
         // and, through the group totals, roulette noise.
         let reach = self.reach.lights_at(point);
+        let batched = point_lights == PointLights::Batched;
+        if batched && reach.rects.is_empty() {
+            return ([Vec3::ZERO; 2], RectShare::default());
+        }
         // Each culled light's importance, computed once: it is needed for the group totals and
         // again for the roulette. The first `IMPORTANCE_CACHE` lights keep theirs on the stack
         // (no allocation per shading point); any further light is recomputed, to the same value.
@@ -446,34 +404,27 @@ impl LightSet {
         let mut e = [Vec3::ZERO; 2];
         let eps = ray_epsilon(point);
         let origin = point + ng * eps;
-        for (k, &i) in reach.points.iter().enumerate() {
-            let light = &self.points[i as usize];
-            let b = if k < IMPORTANCE_CACHE { cached[k] } else { point_importance(light, point, ng, ns) };
-            let Some(weight) = roulette(b, total[light.group], cull, sampler) else { continue };
-            let d = light.position - point;
-            let dist2 = d.length_squared();
-            let dist = dist2.sqrt();
-            let dir = d / dist;
-            let add = light.rgb_cd * (weight * ns.dot(dir) / dist2);
-            let ray = ShadowRay { slot: i, origin, dir, tmax: dist - 2.0 * eps };
-            if let Some(queue) = defer {
-                queue.borrow_mut().push(DeferredShadow { ray, group: light.group, add, tag: 0 });
-            } else if !blockers.occluded(accel, ray.slot as usize, origin, dir, ray.tmax) {
-                e[light.group] += add;
-            }
-        }
         let all_points = self.points.len();
-        for (i, light) in self.directionals.iter().enumerate() {
-            let slot = all_points + i;
-            if directional_importance(light, ng, ns) <= 0.0 {
-                continue;
+        if !batched {
+            for (k, &i) in reach.points.iter().enumerate() {
+                let light = &self.points[i as usize];
+                let b = if k < IMPORTANCE_CACHE { cached[k] } else { point_importance(light, point, ng, ns) };
+                let Some(weight) = roulette(b, total[light.group], cull, sampler) else { continue };
+                let d = light.position - point;
+                let dist2 = d.length_squared();
+                let dist = dist2.sqrt();
+                let dir = d / dist;
+                if !blockers.occluded(accel, i as usize, origin, dir, dist - 2.0 * eps) {
+                    e[light.group] += light.rgb_cd * (weight * ns.dot(dir) / dist2);
+                }
             }
-            let add = light.rgb_lux * ns.dot(light.to_light);
-            let ray = ShadowRay { slot: slot as u32, origin, dir: light.to_light, tmax: f32::INFINITY };
-            if let Some(queue) = defer {
-                queue.borrow_mut().push(DeferredShadow { ray, group: light.group, add, tag: 0 });
-            } else if !blockers.occluded(accel, slot, origin, light.to_light, f32::INFINITY) {
-                e[light.group] += add;
+            for (i, light) in self.directionals.iter().enumerate() {
+                if directional_importance(light, ng, ns) <= 0.0 {
+                    continue;
+                }
+                if !blockers.occluded(accel, all_points + i, origin, light.to_light, f32::INFINITY) {
+                    e[light.group] += light.rgb_lux * ns.dot(light.to_light);
+                }
             }
         }
         let count = rect_samples.max(1);
@@ -629,7 +580,7 @@ fn seen_bounds(center: Vec3, u: Vec3, v: Vec3, normal: Vec3) -> (Vec3, Vec3) {
 /// Russian roulette for a light of importance `b` in a group of total `total`: `Some(weight)`
 /// when it is to be traced.
 #[inline(always)]
-fn roulette(b: f32, total: f32, cull: f32, sampler: &mut Sampler) -> Option<f32> {
+pub(super) fn roulette(b: f32, total: f32, cull: f32, sampler: &mut Sampler) -> Option<f32> {
     if b <= 0.0 {
         return None;
     }
@@ -645,7 +596,7 @@ fn roulette(b: f32, total: f32, cull: f32, sampler: &mut Sampler) -> Option<f32>
 
 /// Unshadowed illuminance (lux) of a point light; 0 when it is behind the surface.
 #[inline(always)]
-fn point_importance(light: &PointLight, point: Vec3, ng: Vec3, ns: Vec3) -> f32 {
+pub(super) fn point_importance(light: &PointLight, point: Vec3, ng: Vec3, ns: Vec3) -> f32 {
     let d = light.position - point;
     let dist2 = d.length_squared();
     if dist2 <= 0.0 || ns.dot(d) <= 0.0 || ng.dot(d) <= 0.0 {
@@ -656,7 +607,7 @@ fn point_importance(light: &PointLight, point: Vec3, ng: Vec3, ns: Vec3) -> f32 
 
 /// Unshadowed illuminance (lux) of a directional light.
 #[inline(always)]
-fn directional_importance(light: &DirectionalLight, ng: Vec3, ns: Vec3) -> f32 {
+pub(super) fn directional_importance(light: &DirectionalLight, ng: Vec3, ns: Vec3) -> f32 {
     if ng.dot(light.to_light) <= 0.0 {
         return 0.0;
     }
@@ -667,7 +618,7 @@ fn directional_importance(light: &DirectionalLight, ng: Vec3, ns: Vec3) -> f32 {
 /// (a whole hemisphere of that luminance); 0 when the point is behind the emitter or the
 /// emitter behind the surface.
 #[inline(always)]
-fn rect_importance(light: &RectLight, point: Vec3, ns: Vec3) -> f32 {
+pub(super) fn rect_importance(light: &RectLight, point: Vec3, ns: Vec3) -> f32 {
     let to_point = point - light.center;
     if to_point.dot(light.normal) <= 0.0 {
         return 0.0;

@@ -34,11 +34,14 @@
 
 pub mod accel;
 pub mod camera;
+mod hit_batch;
+mod lanes;
 pub mod lights;
 pub mod packet;
 mod quad;
 mod reach;
 mod refine;
+mod responses;
 pub mod shade;
 #[cfg(target_arch = "x86_64")]
 mod sse;
@@ -552,13 +555,15 @@ pub struct Renderer<'a> {
     scene: &'a Scene,
     accel: Accel,
     lights: LightSet,
+    /// The materials as a packet's hits are evaluated ([`responses`]).
+    materials: responses::MaterialTable<'a>,
     settings: RenderSettings,
     /// Which build of the tile loop runs ([`crate::simd`]; same frame either way).
     dispatch: crate::simd::Dispatch,
-    /// Whether several samples per pixel trace their hits' shadow rays to point and
-    /// directional lights in packets ([`lights::DeferredShadow`]); off only in a test that
-    /// compares the two ways.
-    defer_shadows: bool,
+    /// Whether several samples per pixel light each packet's hits with the point and
+    /// directional lights together ([`hit_batch`]); off only in a test that compares the two
+    /// ways.
+    batch_lights: bool,
 }
 
 impl<'a> Renderer<'a> {
@@ -569,9 +574,10 @@ impl<'a> Renderer<'a> {
             scene,
             accel: Accel::build(scene),
             lights: LightSet::for_scene(scene, [1.0, 1.0]),
+            materials: responses::MaterialTable::new(scene),
             settings,
             dispatch: crate::simd::Dispatch::current(),
-            defer_shadows: true,
+            batch_lights: true,
         }
     }
 
@@ -598,7 +604,7 @@ impl<'a> Renderer<'a> {
             settings: &self.settings,
             blockers,
             pixel_seed,
-            deferred: None,
+            point_lights: lights::PointLights::Traced,
         }
     }
 

@@ -24,6 +24,7 @@
 use glam::{Vec3, Vec3A};
 
 use super::accel::{Accel, Hit, positive_zeros};
+use super::lanes::bits;
 use super::quad::QuadRays;
 use super::wide::{BoxRay, Child, LANES, WideNode};
 
@@ -441,18 +442,6 @@ impl PacketBounds {
         }
         mask
     }
-}
-
-/// Indices of the set bits of `mask`, lowest first.
-#[inline(always)]
-fn bits(mut mask: u64) -> impl Iterator<Item = usize> {
-    std::iter::from_fn(move || {
-        (mask != 0).then(|| {
-            let i = mask.trailing_zeros() as usize;
-            mask &= mask - 1;
-            i
-        })
-    })
 }
 
 /// The quads (rays `4 q..4 q + 4`) holding a ray of `mask`, lowest first, each with the bits of

@@ -131,13 +131,31 @@ impl LightReach {
     #[must_use]
     #[inline(always)]
     pub fn lights_at(&self, point: Vec3) -> &Lists {
+        self.lists(self.room_of(point))
+    }
+
+    /// Which lists hold the lights that may reach `point`: the index of its room, or one past
+    /// the last room for a point outside every room (for [`LightReach::lists`]).
+    #[must_use]
+    #[inline(always)]
+    pub fn room_of(&self, point: Vec3) -> usize {
         // A loop over a handful of boxes; plain code for the AVX2 build of the tile loop.
-        for room in &self.rooms {
+        for (i, room) in self.rooms.iter().enumerate() {
             if point.x >= room.min.x && point.x <= room.max.x && point.y >= room.min.y && point.y <= room.max.y {
-                return &room.lights;
+                return i;
             }
         }
-        &self.everywhere
+        self.rooms.len()
+    }
+
+    /// The lights of [`LightReach::room_of`]'s answer `room`.
+    #[must_use]
+    #[inline(always)]
+    pub fn lists(&self, room: usize) -> &Lists {
+        match self.rooms.get(room) {
+            Some(r) => &r.lights,
+            None => &self.everywhere,
+        }
     }
 
     /// The lists of room `room`, if the floorplan passed the checks.

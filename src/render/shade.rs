@@ -23,13 +23,12 @@
 //!   (point, directional) give no highlight on metals; glass is perfectly clear (left out of the
 //!   BVH) and mirrors see rect emitters and diffuse surfaces lit directly.
 
-use std::cell::RefCell;
 use std::sync::OnceLock;
 
 use glam::{Vec2, Vec3};
 
 use super::accel::{Accel, Hit, SurfacePoint};
-use super::lights::{Blockers, DeferredShadow, LightSet, RectShare, luminance, ray_epsilon};
+use super::lights::{Blockers, LightSet, PointLights, RectShare, luminance, ray_epsilon};
 use super::{GroupRgb, RenderSettings, Sampler, Strata};
 use crate::scene::{Material, Scene, Texture};
 
@@ -57,7 +56,7 @@ pub fn srgb_to_linear(byte: u8) -> f32 {
 /// The table behind [`srgb_to_linear`], for callers that decode many bytes: one check of the
 /// lazy initialisation instead of one per byte.
 #[inline(always)]
-fn srgb_table() -> &'static [f32; 256] {
+pub(super) fn srgb_table() -> &'static [f32; 256] {
     static LUT: OnceLock<[f32; 256]> = OnceLock::new();
     LUT.get_or_init(|| {
         std::array::from_fn(|i| {
@@ -70,7 +69,7 @@ fn srgb_table() -> &'static [f32; 256] {
 /// `i.rem_euclid(n)` for `i` in `-n..2 * n`, without the integer division (a few per cent of
 /// the texture lookups of a frame). A bilinear footprint's texel indices are in `-1..=n`.
 #[inline(always)]
-fn wrap_once(i: i64, n: i64) -> i64 {
+pub(super) fn wrap_once(i: i64, n: i64) -> i64 {
     let i = if i < 0 { i + n } else { i };
     if i >= n { i - n } else { i }
 }
@@ -166,10 +165,9 @@ pub(crate) struct Tracer<'a> {
     pub blockers: &'a Blockers,
     /// Seed of the pixels' random streams in this view ([`super::Renderer::pixel_seed`]).
     pub pixel_seed: u64,
-    /// Where a camera-ray hit's shadow rays to point and directional lights go instead of
-    /// being traced ([`DeferredShadow`]), with the radiance each adds towards the camera;
-    /// `None`: traced at once.
-    pub deferred: Option<&'a RefCell<Vec<DeferredShadow>>>,
+    /// Whether the point and directional lights are traced here or by the caller, for a
+    /// packet's hits together ([`super::hit_batch`]; only camera-ray hits, never bounces).
+    pub point_lights: PointLights,
 }
 
 /// A unit vector in the hemisphere about `n`, cosine-distributed, from `(u1, u2)` in [0, 1)^2.
@@ -268,6 +266,17 @@ impl Tracer<'_> {
         rect_strata: Strata,
         sampler: &mut Sampler,
     ) -> GroupRgb {
+        match self.camera_ray_seen(origin, dir, hit, emitters) {
+            Primary::Miss => [Vec3::ZERO; 2],
+            Primary::Emitter(l) => l,
+            Primary::Surface(s) => self.hit_radiance(dir, &s, strata, rect_strata, sampler),
+        }
+    }
+
+    /// What a camera ray sees given its closest hit `hit`: [`Tracer::primary`] of the
+    /// interpolated hit.
+    #[inline(always)]
+    pub fn camera_ray_seen(&self, origin: Vec3, dir: Vec3, hit: Option<Hit>, emitters: &[u32]) -> Primary {
         // A `match`, not `Option::map`: a closure called from both builds of the tile loop can
         // stay out of line, with baseline code (see `crate::simd`).
         #[allow(clippy::manual_map)]
@@ -275,31 +284,43 @@ impl Tracer<'_> {
             Some(h) => Some((h.t, self.accel.surface(&h, origin, dir))),
             None => None,
         };
-        match self.primary(origin, dir, hit, emitters) {
-            Primary::Miss => [Vec3::ZERO; 2],
-            Primary::Emitter(l) => l,
-            Primary::Surface(s) => {
-                let e = if s.response.diffuse != Vec3::ZERO {
-                    // A `match`, not `map_or` with a closure (see above).
-                    let mark = match self.deferred {
-                        Some(queue) => queue.borrow().len(),
-                        None => 0,
-                    };
-                    let e = self.irradiance(&s.surface, strata, rect_strata, sampler);
-                    // What the deferred lights add is radiance towards the camera, as `e` gives
-                    // in `surface_radiance`.
-                    if let Some(queue) = self.deferred {
-                        for d in &mut queue.borrow_mut()[mark..] {
-                            d.add *= s.response.diffuse * std::f32::consts::FRAC_1_PI;
-                        }
-                    }
-                    Some(e)
-                } else {
-                    None
-                };
-                self.surface_radiance(dir, &s, e, sampler)
-            }
-        }
+        self.primary(origin, dir, hit, emitters)
+    }
+
+    /// Radiance per group leaving the camera-ray hit `s` along `-dir`: its irradiance (bounce
+    /// rays on `strata`, rect light samples on `rect_strata`) times its diffuse albedo over pi,
+    /// plus its mirror reflection. Without the point and directional lights where those are
+    /// [`PointLights::Batched`].
+    #[inline(always)]
+    pub fn hit_radiance(
+        &self,
+        dir: Vec3,
+        s: &SurfaceHit,
+        strata: Strata,
+        rect_strata: Strata,
+        sampler: &mut Sampler,
+    ) -> GroupRgb {
+        let e = if s.response.diffuse != Vec3::ZERO {
+            Some(self.irradiance(&s.surface, strata, rect_strata, sampler))
+        } else {
+            None
+        };
+        self.surface_radiance(dir, s, e, sampler)
+    }
+
+    /// Whether [`Tracer::hit_radiance`] of a hit of material `response` in room `room`
+    /// ([`super::reach::LightReach::room_of`]; `None` without a diffuse part) adds anything
+    /// with the point and directional lights batched: rect lights in reach or bounce rays for
+    /// a diffuse part, or a mirror.
+    #[inline(always)]
+    pub fn hit_has_more_than_point_lights(&self, response: &SurfaceResponse, room: Option<usize>) -> bool {
+        // A `match`, not `is_some_and` with a closure (see `camera_ray_seen`).
+        let rects_in_reach = match room {
+            Some(room) => !self.lights.reach.lists(room).rects.is_empty(),
+            None => false,
+        };
+        let diffuse = response.diffuse != Vec3::ZERO && (self.settings.indirect_rays > 0 || rects_in_reach);
+        diffuse || (self.settings.specular && response.specular != Vec3::ZERO)
     }
 
     /// What a camera ray along `dir` sees, given its closest hit (distance and surface): an
@@ -366,7 +387,7 @@ impl Tracer<'_> {
             sampler,
             self.blockers,
             unshadowed,
-            self.deferred,
+            self.point_lights,
         );
         let indirect = self.indirect_irradiance(p, ng, ns, self.settings.indirect_rays, strata, sampler);
         (add(add(other, rects.visible), indirect), rects)

@@ -4,10 +4,10 @@
 //! about twice the speed of one ray at a time, docs/BENCHMARKS.md): the centre rays, then, with
 //! `n x n` samples per pixel, one packet per sample. Each pixel is shaded as it would be alone,
 //! from its own random stream in its own order, so a tiled frame is bit for bit the frame a
-//! pixel-by-pixel trace gives, at any thread count. With several samples per pixel, the shadow
-//! rays from a sample's hits to each point or directional light are traced together, as
-//! packets, once the tile's pixels have shaded that sample ([`super::lights::DeferredShadow`]);
-//! the sums then differ from shading each pixel alone only in their order. Other shadow rays
+//! pixel-by-pixel trace gives, at any thread count. With several samples per pixel, a sample's
+//! hits are lit by the point and directional lights together, their shadow rays to each light
+//! traced as a packet ([`super::hit_batch`]); the sums then differ from shading each pixel
+//! alone only in their order. Other shadow rays
 //! (rect-light samples, bounces, anchors) stay one at a time: traced as packets per light and
 //! tile they were slower on real frames (small, spread packets; docs/BENCHMARKS.md).
 //!
@@ -17,19 +17,19 @@
 //! `#[inline(always)]` down to the triangle test, since a function left out of line is compiled
 //! once, for the baseline, and closures called from both builds are avoided for the same reason.
 
-use std::cell::RefCell;
-
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::lights::{Blockers, RectShare};
+use super::hit_batch::HitBatch;
+use super::lights::{Blockers, PointLights, RectShare};
 use super::packet::{PACKET_RAYS, RayPacket};
+use super::responses::Responses;
 use super::shade::{Primary, SurfaceHit, Tracer};
 use super::{
     AnchorGrid, Camera, Frame, GroupRgb, Guide, IdFrame, PIXEL_STREAM, PixelOut, PixelRect, Renderer, Sampler,
     ShadingRate, Strata, TILE_STREAM, finite_radiance,
 };
-use crate::render::accel::Hit;
+use crate::render::accel::{Hit, Surfaces};
 use crate::simd::Dispatch;
 
 /// Period, in anchors along each axis, of the interleaved rect-light samples of anchors
@@ -325,15 +325,18 @@ impl Renderer<'_> {
     ) {
         let basis = camera.basis();
         let origin = camera.position;
-        packet.clear();
         // Plain loops into fixed arrays rather than `collect`: the collecting `fold` was left
         // out of line, and so ran baseline code in the AVX2 clone too (perf, session 5).
-        let mut dirs = [Vec3::ZERO; PACKET_RAYS];
-        for (dir, &(_, (x, y))) in dirs.iter_mut().zip(cells) {
-            *dir = camera.ray_direction_in(basis, x as f32 + 0.5, y as f32 + 0.5);
+        let (mut px, mut py) = ([0.0f32; PACKET_RAYS], [0.0f32; PACKET_RAYS]);
+        for (c, &(_, (x, y))) in cells.iter().enumerate() {
+            (px[c], py[c]) = (x as f32 + 0.5, y as f32 + 0.5);
+        }
+        let all_dirs = camera.ray_directions_in(basis, &px, &py);
+        let dirs = &all_dirs[..cells.len()];
+        packet.clear();
+        for dir in dirs {
             packet.push(origin, *dir, f32::INFINITY);
         }
-        let dirs = &dirs[..cells.len()];
         let mut hits: [Option<Hit>; PACKET_RAYS] = [None; PACKET_RAYS];
         self.accel.closest_hits(packet, &mut hits);
         if let Job::Ids = job {
@@ -349,11 +352,13 @@ impl Renderer<'_> {
             self.lights.emitters_in_reach(packet, &mut emitters);
         }
         let mut labels = Vec::with_capacity(cells.len());
+        let mut surfaces = Surfaces::default();
+        self.accel.surfaces(&hits, cells.len(), origin, &all_dirs, &mut surfaces);
         for (k, (&(slot, (x, y)), &dir)) in cells.iter().zip(dirs).enumerate() {
             // A `match`, not `Option::map`: see `shade_centre`.
             #[allow(clippy::manual_map)]
             let hit = match hits[k] {
-                Some(h) => Some((h.t, self.accel.surface(&h, origin, dir))),
+                Some(h) => Some((h.t, surfaces.point(k))),
                 None => None,
             };
             let pixel_labels = self.labels(dir, basis, hit.as_ref());
@@ -380,6 +385,11 @@ impl Renderer<'_> {
     /// then per sample pass each pixel's jitter, in cell order; a pixel's shading draws from
     /// its own stream in the order it would alone, so interleaving the pixels changes nothing
     /// there.
+    ///
+    /// A pass lights its hits in three steps: what each ray sees, then the point and
+    /// directional lights of all the hits together ([`super::hit_batch`]; their roulette
+    /// draws come first in a pixel's stream, as they do alone), then, hit by hit, whatever
+    /// else a hit needs (rect lights, bounces, mirrors).
     #[inline(always)]
     fn sample_tile(
         &self,
@@ -401,49 +411,94 @@ impl Renderer<'_> {
         // such an image (perf, session 11).
         let mut jitter =
             Sampler::of_hashed(tracer.pixel_seed, TILE_STREAM, cells.first().map_or(0, |c| pixel_key(c.1)));
-        let mut samplers: Vec<(Sampler, f32, f32)> = Vec::with_capacity(cells.len());
+        let mut samplers: Vec<Sampler> = Vec::with_capacity(cells.len());
+        let mut rotations: Vec<(f32, f32)> = Vec::with_capacity(cells.len());
         for &(_, pixel) in cells {
-            let sampler = Sampler::of_hashed(tracer.pixel_seed, PIXEL_STREAM, pixel_key(pixel));
-            let rotation = jitter.uniform();
-            let rect_rotation = jitter.uniform();
-            samplers.push((sampler, rotation, rect_rotation));
+            samplers.push(Sampler::of_hashed(tracer.pixel_seed, PIXEL_STREAM, pixel_key(pixel)));
+            rotations.push((jitter.uniform(), jitter.uniform()));
         }
         let mut sums = vec![[Vec3::ZERO; 2]; cells.len()];
         let mut hits: [Option<Hit>; PACKET_RAYS] = [None; PACKET_RAYS];
         let mut emitters = Vec::new();
-        // The hits' shadow rays to point and directional lights, traced per sample in packets
-        // (one per light) once every pixel has shaded that sample.
-        let queue = RefCell::new(Vec::new());
-        let deferring = Tracer { deferred: Some(&queue), ..*tracer };
-        let tracer = if self.defer_shadows { &deferring } else { tracer };
+        let batched = Tracer { point_lights: PointLights::Batched, ..*tracer };
+        let tracer = if self.batch_lights { &batched } else { tracer };
+        let (mut surfaces, mut responses) = (Surfaces::default(), Responses::default());
+        let mut batch = HitBatch::default();
         for j in 0..n {
             for i in 0..n {
-                packet.clear();
-                let mut dirs = [Vec3::ZERO; PACKET_RAYS];
-                for (dir, &(_, (x, y))) in dirs.iter_mut().zip(cells) {
+                let (mut px, mut py) = ([0.0f32; PACKET_RAYS], [0.0f32; PACKET_RAYS]);
+                for (c, &(_, (x, y))) in cells.iter().enumerate() {
                     let sx = (i as f32 + jitter.uniform()) / n as f32;
                     let sy = (j as f32 + jitter.uniform()) / n as f32;
-                    *dir = camera.ray_direction_in(basis, x as f32 + sx, y as f32 + sy);
+                    (px[c], py[c]) = (x as f32 + sx, y as f32 + sy);
+                }
+                let dirs = camera.ray_directions_in(basis, &px, &py);
+                packet.clear();
+                for dir in &dirs[..cells.len()] {
                     packet.push(origin, *dir, f32::INFINITY);
                 }
                 self.accel.closest_hits(packet, &mut hits);
                 self.lights.emitters_in_reach(packet, &mut emitters);
-                for (k, (sampler, rotation, rect_rotation)) in samplers.iter_mut().enumerate() {
-                    let first = j * n + i;
-                    let strata = Strata { first, stride: n * n, total: bounce_total, rotation: *rotation };
-                    let rect = Strata { first, stride: n * n, total: rect_total, rotation: *rect_rotation };
-                    let mark = queue.borrow().len();
-                    let l = tracer.camera_ray(origin, dirs[k], hits[k], &emitters, strata, rect, sampler);
-                    sums[k][0] += l[0];
-                    sums[k][1] += l[1];
-                    for d in &mut queue.borrow_mut()[mark..] {
-                        d.tag = k as u32;
+                // A pixel's bounce and rect-light strata at this sample (a function, not a
+                // closure: see `Cells`).
+                #[inline(always)]
+                fn strata(first: u32, n: u32, totals: (u32, u32), (rotation, rect): (f32, f32)) -> (Strata, Strata) {
+                    (
+                        Strata { first, stride: n * n, total: totals.0, rotation },
+                        Strata { first, stride: n * n, total: totals.1, rotation: rect },
+                    )
+                }
+                let (first, totals) = (j * n + i, (bounce_total, rect_total));
+                if !self.batch_lights {
+                    for (k, sampler) in samplers.iter_mut().enumerate() {
+                        let (bounce, rect) = strata(first, n, totals, rotations[k]);
+                        let l = tracer.camera_ray(origin, dirs[k], hits[k], &emitters, bounce, rect, sampler);
+                        sums[k][0] += l[0];
+                        sums[k][1] += l[1];
+                    }
+                    continue;
+                }
+                let count = cells.len();
+                self.accel.surfaces(&hits, count, origin, &dirs, &mut surfaces);
+                self.materials.evaluate(&surfaces, &mut responses);
+                // What each ray sees: a rect light's emitter in front of its hit, its hit, or
+                // nothing (`Tracer::primary`, lane by lane).
+                let mut lit = surfaces.lanes;
+                if !emitters.is_empty() {
+                    for (k, sum) in sums.iter_mut().enumerate() {
+                        let tmax = if lit >> k & 1 == 1 { surfaces.t[k] } else { f32::INFINITY };
+                        let seen = self.lights.emitter_seen_among(origin, dirs[k], tmax, emitters.iter().copied());
+                        if let Some((_, group, rgb)) = seen {
+                            sum[group] += rgb;
+                            lit &= !(1 << k);
+                        }
                     }
                 }
-                let mut deferred = queue.borrow_mut();
-                tracer.blockers.resolve(&self.accel, &mut deferred, packet);
-                for d in deferred.drain(..) {
-                    sums[d.tag as usize][d.group] += d.add;
+                batch.fill(&surfaces, &responses, lit, &self.lights.reach);
+                let mut more_lanes = 0u64;
+                for k in super::lanes::bits(lit) {
+                    if tracer.hit_has_more_than_point_lights(&responses.get(k), batch.room(k)) {
+                        more_lanes |= 1 << k;
+                    }
+                }
+                let cull = self.settings.light_cull;
+                let blockers = tracer.blockers;
+                self.lights.light_batch(
+                    &self.accel,
+                    &surfaces,
+                    &batch,
+                    cull,
+                    &mut samplers,
+                    blockers,
+                    packet,
+                    &mut sums,
+                );
+                for k in super::lanes::bits(more_lanes) {
+                    let s = SurfaceHit { surface: surfaces.point(k), response: responses.get(k) };
+                    let (bounce, rect) = strata(first, n, totals, rotations[k]);
+                    let l = tracer.hit_radiance(dirs[k], &s, bounce, rect, &mut samplers[k]);
+                    sums[k][0] += l[0];
+                    sums[k][1] += l[1];
                 }
             }
         }
@@ -613,10 +668,11 @@ mod tests {
         (house.scene, camera)
     }
 
-    /// Shadow rays to point lights and the sun traced later, in packets, give the frame that
-    /// tracing each at once gives, up to the order of the sums (a few ulps).
+    /// Hits lit by the point lights and the sun together, their shadow rays in packets, give
+    /// the frame that lighting each hit alone gives, up to the order of the sums (a few ulps):
+    /// with the roulette of `standard` too, whose draws must come in the same order.
     #[test]
-    fn deferred_shadow_rays_give_the_frame_of_immediate_ones() {
+    fn hits_lit_together_give_the_frame_of_hits_lit_alone() {
         let (scene, camera) = house_view();
         let direct = RenderSettings {
             samples_per_axis: 2,
@@ -627,19 +683,16 @@ mod tests {
             ..RenderSettings::preview()
         };
         for (name, settings) in [("direct", direct), ("standard", RenderSettings::standard())] {
-            let render = |defer| {
+            let render = |batch| {
                 let mut renderer = Renderer::new(&scene, settings);
-                renderer.defer_shadows = defer;
+                renderer.batch_lights = batch;
                 renderer.render(&camera).unwrap()
             };
-            let (deferred, immediate) = (render(true), render(false));
-            assert_eq!(deferred.depth_m, immediate.depth_m, "{name}");
-            assert_eq!(deferred.instance_id, immediate.instance_id, "{name}");
-            let pairs = deferred
-                .day_nit
-                .iter()
-                .chain(&deferred.night_nit)
-                .zip(immediate.day_nit.iter().chain(&immediate.night_nit));
+            let (batched, alone) = (render(true), render(false));
+            assert_eq!(batched.depth_m, alone.depth_m, "{name}");
+            assert_eq!(batched.instance_id, alone.instance_id, "{name}");
+            let pairs =
+                batched.day_nit.iter().chain(&batched.night_nit).zip(alone.day_nit.iter().chain(&alone.night_nit));
             let (mut lit, mut worst) = (0, 0.0f32);
             for (a, b) in pairs {
                 for (x, y) in a.iter().zip(b) {
@@ -647,7 +700,7 @@ mod tests {
                     lit += usize::from(*y > 0.0);
                 }
             }
-            assert!(lit > deferred.day_nit.len(), "{name}: a lit frame ({lit} lit values)");
+            assert!(lit > batched.day_nit.len(), "{name}: a lit frame ({lit} lit values)");
             assert!(worst < 1e-5, "{name}: largest relative difference {worst}");
         }
     }

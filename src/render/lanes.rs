@@ -1,0 +1,55 @@
+//! Structure of arrays over the lanes of a packet: one lane per ray, one array per coordinate.
+//!
+//! The per-packet stages of the renderer (surfaces, materials, point lights) are written as
+//! plain loops over the lanes that LLVM's loop vectoriser turns into vector code (eight lanes
+//! at a time in the AVX2 build of the tile loop, [`crate::simd`]). What it vectorises, found by
+//! compiling with `-C remark=loop-vectorize`: a loop over `k` whose body names each coordinate
+//! as its own variable and writes whole arrays, with choices made by [`select`]. An inner loop
+//! over the three axes inside the loop over the lanes, or a write read back in the same loop
+//! through a structure, left it scalar ("cannot identify array bounds").
+
+use glam::Vec3;
+
+pub(crate) use super::packet::PACKET_RAYS as N;
+
+/// One `f32` per lane.
+pub(crate) type Lanes = [f32; N];
+/// A vector per lane, stored per axis.
+pub(crate) type Lanes3 = [Lanes; 3];
+
+/// Lane `k` of a vector stored per axis.
+#[must_use]
+#[inline(always)]
+pub(crate) fn lane3(v: &Lanes3, k: usize) -> Vec3 {
+    Vec3::new(v[0][k], v[1][k], v[2][k])
+}
+
+/// `a` where `c` holds, else `b`: a blend in vector code.
+#[must_use]
+#[inline(always)]
+pub(crate) fn select(c: bool, a: f32, b: f32) -> f32 {
+    if c { a } else { b }
+}
+
+/// Indices of the set bits of `mask`, lowest first.
+#[inline(always)]
+pub(crate) fn bits(mut mask: u64) -> impl Iterator<Item = usize> {
+    std::iter::from_fn(move || {
+        (mask != 0).then(|| {
+            let i = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            i
+        })
+    })
+}
+
+/// The bits of the lanes where `c` holds.
+#[must_use]
+#[inline(always)]
+pub(crate) fn mask_of(c: &[bool; N]) -> u64 {
+    let mut mask = 0u64;
+    for (k, &c) in c.iter().enumerate() {
+        mask |= u64::from(c) << k;
+    }
+    mask
+}
