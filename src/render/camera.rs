@@ -11,6 +11,7 @@
 use glam::Vec3;
 
 use super::RenderError;
+use super::lanes::{Lanes, Lanes3, N};
 
 /// Transmittance of a typical multi-element coated lens in the visible band, used when a
 /// camera spec gives none (assumed; real lenses measure 0.8..0.95).
@@ -227,17 +228,13 @@ impl Camera {
         (forward * self.focal_mm + right * x_mm + up * y_mm).normalize()
     }
 
-    /// [`Camera::ray_direction_in`] of the pixel positions `(px[k], py[k])`: the same
-    /// operations per ray, in plain loops over the rays that the compiler vectorises. One ray
-    /// at a time, each waited on its square root and division (perf: 8 % of a 4-spp image).
+    /// [`Camera::ray_direction_in`] of the pixel positions `(px[k], py[k])`, per axis: the
+    /// same operations per ray, in vector loops over the rays ([`super::lanes`]). One ray at a
+    /// time, each waited on its square root and division (perf: 8 % of a 4-spp image).
     #[must_use]
+    #[allow(clippy::needless_range_loop)] // Lane loops: the form the vectoriser takes.
     #[inline(always)]
-    pub fn ray_directions_in<const N: usize>(
-        &self,
-        (forward, right, up): (Vec3, Vec3, Vec3),
-        px: &[f32; N],
-        py: &[f32; N],
-    ) -> [Vec3; N] {
+    pub(crate) fn ray_directions_in(&self, (forward, right, up): (Vec3, Vec3, Vec3), px: &Lanes, py: &Lanes) -> Lanes3 {
         let pitch_mm = self.pixel_pitch_um * 1e-3;
         let (half_width, half_height) = (self.width_px as f32 * 0.5, self.height_px as f32 * 0.5);
         let ahead = forward * self.focal_mm;
@@ -251,14 +248,15 @@ impl Camera {
         }
         // glam's `normalize`: `v * (1 / sqrt((x x + y y) + z z))`.
         let mut length_recip = [0.0f32; N];
-        for (k, r) in length_recip.iter_mut().enumerate() {
-            *r = 1.0 / (v[0][k] * v[0][k] + v[1][k] * v[1][k] + v[2][k] * v[2][k]).sqrt();
+        for k in 0..N {
+            length_recip[k] = 1.0 / (v[0][k] * v[0][k] + v[1][k] * v[1][k] + v[2][k] * v[2][k]).sqrt();
         }
-        let mut dirs = [Vec3::ZERO; N];
-        for (k, dir) in dirs.iter_mut().enumerate() {
-            *dir = Vec3::new(v[0][k], v[1][k], v[2][k]) * length_recip[k];
+        for axis in 0..3 {
+            for k in 0..N {
+                v[axis][k] *= length_recip[k];
+            }
         }
-        dirs
+        v
     }
 
     /// Fraction of the on-axis sensor illuminance reaching continuous pixel coordinates
@@ -389,7 +387,8 @@ mod tests {
         let packet = camera.ray_directions_in(basis, &px, &py);
         for k in 0..64 {
             let alone = camera.ray_direction_in(basis, px[k], py[k]);
-            assert_eq!(packet[k].to_array().map(f32::to_bits), alone.to_array().map(f32::to_bits), "ray {k}");
+            let lane = crate::render::lanes::lane3(&packet, k);
+            assert_eq!(lane.to_array().map(f32::to_bits), alone.to_array().map(f32::to_bits), "ray {k}");
         }
     }
 

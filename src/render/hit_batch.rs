@@ -49,7 +49,7 @@ impl HitBatch {
         let rho = &responses.diffuse;
         let mut diffuse = [false; N];
         for k in 0..N {
-            diffuse[k] = rho[0][k] != 0.0 || rho[1][k] != 0.0 || rho[2][k] != 0.0;
+            diffuse[k] = (rho[0][k] != 0.0) | (rho[1][k] != 0.0) | (rho[2][k] != 0.0);
         }
         for c in 0..3 {
             for k in 0..N {
@@ -57,9 +57,7 @@ impl HitBatch {
             }
         }
         self.lanes = lanes & mask_of(&diffuse);
-        for k in bits(self.lanes) {
-            self.room[k] = reach.room_of(surfaces.position(k)) as u32;
-        }
+        self.room = reach.rooms_of(&surfaces.position[0], &surfaces.position[1]);
     }
 
     /// The room of lane `k` ([`LightReach::room_of`]) if it is in the batch.
@@ -108,10 +106,18 @@ fn epsilon(surfaces: &Surfaces) -> Lanes {
     eps
 }
 
-/// The hit point of lane `k` pushed off its surface by `eps` (a shadow ray's origin).
+/// Per lane, the hit point pushed off its surface by `eps` along the plane normal: a shadow
+/// ray's origin (`point + ng * eps`).
 #[inline(always)]
-fn shadow_origin(surfaces: &Surfaces, k: usize, eps: f32) -> Vec3 {
-    surfaces.position(k) + lane3(&surfaces.geometric_normal, k) * eps
+fn shadow_origins(surfaces: &Surfaces, eps: &Lanes) -> Lanes3 {
+    let (p, ng) = (&surfaces.position, &surfaces.geometric_normal);
+    let mut origin = [[0.0; N]; 3];
+    for axis in 0..3 {
+        for k in 0..N {
+            origin[axis][k] = p[axis][k] + ng[axis][k] * eps[k];
+        }
+    }
+    origin
 }
 
 /// From every lane to one point light: the offset, its squared length and its dot products
@@ -130,7 +136,7 @@ impl Towards {
         let mut b = [0.0; N];
         for k in 0..N {
             let (dist2, ns_d) = (self.dist2[k], self.ns_d[k]);
-            let lit = dist2 > 0.0 && ns_d > 0.0 && self.ng_d[k] > 0.0;
+            let lit = (dist2 > 0.0) & (ns_d > 0.0) & (self.ng_d[k] > 0.0);
             b[k] = select(lit, luminous * ns_d / (dist2 * dist2.sqrt()), 0.0);
         }
         b
@@ -181,6 +187,7 @@ impl LightSet {
         sums: &mut [GroupRgb],
     ) {
         let eps = epsilon(surfaces);
+        let origins = shadow_origins(surfaces, &eps);
         let mut left = hits.lanes;
         while left != 0 {
             let room = hits.room[left.trailing_zeros() as usize];
@@ -192,13 +199,13 @@ impl LightSet {
             for &i in &lists.points {
                 let rays = self.point_rays(i as usize, surfaces, hits, lanes, &eps, &totals, cull, samplers);
                 let group = self.points[i as usize].group;
-                trace_light(accel, surfaces, &rays, i as usize, &eps, blockers, packet, group, sums);
+                trace_light(accel, &origins, &rays, i as usize, blockers, packet, group, sums);
             }
         }
         for i in 0..self.directionals.len() {
             let rays = self.directional_rays(i, surfaces, hits);
             let slot = self.points.len() + i;
-            trace_light(accel, surfaces, &rays, slot, &eps, blockers, packet, self.directionals[i].group, sums);
+            trace_light(accel, &origins, &rays, slot, blockers, packet, self.directionals[i].group, sums);
         }
     }
 
@@ -286,7 +293,7 @@ impl LightSet {
             let ng_l = ng[0][k] * to.x + ng[1][k] * to.y + ng[2][k] * to.z;
             let ns_l = ns[0][k] * to.x + ns[1][k] * to.y + ns[2][k] * to.z;
             // `directional_importance` > 0.
-            lit[k] = ng_l > 0.0 && light.luminous * ns_l.max(0.0) > 0.0;
+            lit[k] = (ng_l > 0.0) & (light.luminous * ns_l.max(0.0) > 0.0);
             rays.add[0][k] = r * ns_l * rho[0][k];
             rays.add[1][k] = g * ns_l * rho[1][k];
             rays.add[2][k] = b * ns_l * rho[2][k];
@@ -299,16 +306,15 @@ impl LightSet {
     }
 }
 
-/// Traces `rays` (to the light of [`Blockers`] slot `slot`, of light group `group`) and adds
-/// each unblocked lane's light to `sums`.
+/// Traces `rays` from `origins` (to the light of [`Blockers`] slot `slot`, of light group
+/// `group`) and adds each unblocked lane's light to `sums`.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn trace_light(
     accel: &Accel,
-    surfaces: &Surfaces,
+    origins: &Lanes3,
     rays: &LightRays,
     slot: usize,
-    eps: &Lanes,
     blockers: &Blockers,
     packet: &mut RayPacket,
     group: usize,
@@ -317,15 +323,13 @@ fn trace_light(
     let mut unblocked = 0u64;
     if (rays.lanes.count_ones() as usize) < MIN_SHADOW_PACKET {
         for k in bits(rays.lanes) {
-            if !blockers.occluded(accel, slot, shadow_origin(surfaces, k, eps[k]), rays.dir(k), rays.tmax[k]) {
+            if !blockers.occluded(accel, slot, lane3(origins, k), rays.dir(k), rays.tmax[k]) {
                 unblocked |= 1 << k;
             }
         }
     } else {
-        packet.clear();
-        for k in bits(rays.lanes) {
-            packet.push(shadow_origin(surfaces, k, eps[k]), rays.dir(k), rays.tmax[k]);
-        }
+        packet.set_lanes(origins, &rays.dir, &rays.tmax, rays.lanes);
+        // Ray `r` of the packet is the `r`-th lane of `rays.lanes`.
         let blocked = accel.occluded_packet(packet);
         for (r, k) in bits(rays.lanes).enumerate() {
             if blocked >> r & 1 == 0 {

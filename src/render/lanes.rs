@@ -4,9 +4,10 @@
 //! plain loops over the lanes that LLVM's loop vectoriser turns into vector code (eight lanes
 //! at a time in the AVX2 build of the tile loop, [`crate::simd`]). What it vectorises, found by
 //! compiling with `-C remark=loop-vectorize`: a loop over `k` whose body names each coordinate
-//! as its own variable and writes whole arrays, with choices made by [`select`]. An inner loop
-//! over the three axes inside the loop over the lanes, or a write read back in the same loop
-//! through a structure, left it scalar ("cannot identify array bounds").
+//! as its own variable and writes whole arrays, with choices made by [`select`] and conditions
+//! joined by `&` and `|`. An inner loop over the three axes inside the loop over the lanes, or
+//! a write read back in the same loop through a structure, left it scalar ("cannot identify
+//! array bounds"); `&&` and `||` branch, and the cost model then kept a loop scalar.
 
 use glam::Vec3;
 

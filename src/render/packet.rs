@@ -24,7 +24,7 @@
 use glam::{Vec3, Vec3A};
 
 use super::accel::{Accel, Hit, positive_zeros};
-use super::lanes::bits;
+use super::lanes::{Lanes, Lanes3, bits, lane3};
 use super::quad::QuadRays;
 use super::wide::{BoxRay, Child, LANES, WideNode};
 
@@ -114,6 +114,31 @@ impl RayPacket {
         self.tmax[i] = tmax;
         self.len += 1;
         i
+    }
+
+    /// Replaces the rays with those of the lanes in `lanes` (bit `k` for lane `k`), in lane
+    /// order: [`RayPacket::push`] of each, as vector copies where `lanes` is a run from lane
+    /// 0 (a packet's camera rays, the shadow rays of a fully lit tile), else lane by lane.
+    #[allow(clippy::needless_range_loop)] // Lane loops: the form the vectoriser takes.
+    #[inline(always)]
+    pub(crate) fn set_lanes(&mut self, origin: &Lanes3, direction: &Lanes3, tmax: &Lanes, lanes: u64) {
+        self.clear();
+        let count = lanes.count_ones() as usize;
+        if lanes != 0 && lanes == u64::MAX >> (64 - count) {
+            for axis in 0..3 {
+                for k in 0..PACKET_RAYS {
+                    self.origin[axis][k] = origin[axis][k];
+                    // `positive_zeros`.
+                    self.direction[axis][k] = direction[axis][k] + 0.0;
+                }
+            }
+            self.tmax = *tmax;
+            self.len = count;
+        } else {
+            for k in bits(lanes) {
+                self.push(lane3(origin, k), lane3(direction, k), tmax[k]);
+            }
+        }
     }
 
     /// Computes the reciprocals and sheared forms of the rays pushed since the last call, four

@@ -31,6 +31,7 @@
 
 use glam::{Vec2, Vec3};
 
+use super::lanes::{Lanes, N};
 use crate::scene::Scene;
 
 /// How far each portal is widened at both ends, metres: far above the rounding of the plan's
@@ -146,6 +147,21 @@ impl LightReach {
             }
         }
         self.rooms.len()
+    }
+
+    /// [`LightReach::room_of`] of the points `(x[k], y[k], _)` of a packet's lanes, room by
+    /// room over all lanes in vector loops ([`super::lanes`]); the last room first, so where
+    /// rooms overlap the first one wins, as in `room_of`.
+    #[inline(always)]
+    pub(crate) fn rooms_of(&self, x: &Lanes, y: &Lanes) -> [u32; N] {
+        let mut room = [self.rooms.len() as u32; N];
+        for (i, r) in self.rooms.iter().enumerate().rev() {
+            for k in 0..N {
+                let inside = (x[k] >= r.min.x) & (x[k] <= r.max.x) & (y[k] >= r.min.y) & (y[k] <= r.max.y);
+                room[k] = if inside { i as u32 } else { room[k] };
+            }
+        }
+        room
     }
 
     /// The lights of [`LightReach::room_of`]'s answer `room`.

@@ -118,9 +118,14 @@ impl<'a> MaterialTable<'a> {
         for k in bits(lanes.textured) {
             let bytes = self.textures[lanes.texture[k] as usize].texels;
             for (corner, texel) in texel.iter_mut().enumerate() {
+                // One load per texel, RGBA from the lowest byte.
                 let at = footprint.offset[corner][k] as usize;
+                let rgba = match bytes.get(at..at + 4) {
+                    Some(&[r, g, b, a]) => u32::from_le_bytes([r, g, b, a]),
+                    _ => u32::MAX,
+                };
                 for (c, channel) in texel.iter_mut().enumerate() {
-                    channel[k] = lut[bytes[at + c] as usize];
+                    channel[k] = lut[(rgba >> (8 * c) & 0xFF) as usize];
                 }
             }
         }
@@ -199,7 +204,11 @@ impl MaterialLanes {
                 // `x` is in [-0.5, n - 0.5], so `x0` is in -1..n and one wrap brings `x0` and
                 // `x0 + 1` into 0..n (`shade::wrap_once`). Lanes without a texture compute
                 // nonsense here, unread.
-                let i = x0 as i32;
+                // SAFETY: clamped into -1..=n, the value is finite and fits an `i32`: the
+                // unchecked conversion is one vector instruction where `as` (saturating, NaN
+                // to 0) was a scalar sequence per lane. On the lanes that sample, `x0` is in
+                // range already and the clamp changes nothing.
+                let i = unsafe { x0.max(-1.0).min(n as f32).to_int_unchecked::<i32>() };
                 near[k] = wrap_once(i, n);
                 far[k] = wrap_once(i + 1, n);
             }
@@ -287,7 +296,7 @@ mod tests {
             // Any hit will do for the lanes' layout; the test overwrites what it varies.
             let hit = Hit { t: 1.0, triangle: 0, b1: 0.25, b2: 0.25 };
             let mut surfaces = Surfaces::default();
-            accel.surfaces(&[Some(hit); N], N, Vec3::ZERO, &[Vec3::Z; N], &mut surfaces);
+            accel.surfaces(&[Some(hit); N], N, Vec3::ZERO, &[[0.0; N], [0.0; N], [1.0; N]], &mut surfaces);
             for k in 0..N {
                 // Every fourth lane: an exact texel edge; two in a packet: no finite
                 // coordinates; material 11: past the end (missing).

@@ -21,6 +21,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use super::hit_batch::HitBatch;
+use super::lanes::{Lanes3, bits, lane3};
 use super::lights::{Blockers, PointLights, RectShare};
 use super::packet::{PACKET_RAYS, RayPacket};
 use super::responses::Responses;
@@ -41,6 +42,18 @@ const INTERLEAVE_PERIOD: u32 = 3;
 /// Side of a tile, pixels: one tile's rays fill one packet.
 pub(super) const TILE: u32 = 8;
 const _: () = assert!((TILE * TILE) as usize == PACKET_RAYS);
+
+/// `v` in every lane.
+#[inline(always)]
+fn splat(v: Vec3) -> Lanes3 {
+    [[v.x; PACKET_RAYS], [v.y; PACKET_RAYS], [v.z; PACKET_RAYS]]
+}
+
+/// The lanes `0..count`.
+#[inline(always)]
+fn first_lanes(count: usize) -> u64 {
+    if count >= 64 { u64::MAX } else { (1u64 << count) - 1 }
+}
 
 /// What a tile computes at each of its pixels.
 #[derive(Clone, Copy)]
@@ -331,12 +344,8 @@ impl Renderer<'_> {
         for (c, &(_, (x, y))) in cells.iter().enumerate() {
             (px[c], py[c]) = (x as f32 + 0.5, y as f32 + 0.5);
         }
-        let all_dirs = camera.ray_directions_in(basis, &px, &py);
-        let dirs = &all_dirs[..cells.len()];
-        packet.clear();
-        for dir in dirs {
-            packet.push(origin, *dir, f32::INFINITY);
-        }
+        let dirs = camera.ray_directions_in(basis, &px, &py);
+        packet.set_lanes(&splat(origin), &dirs, &[f32::INFINITY; PACKET_RAYS], first_lanes(cells.len()));
         let mut hits: [Option<Hit>; PACKET_RAYS] = [None; PACKET_RAYS];
         self.accel.closest_hits(packet, &mut hits);
         if let Job::Ids = job {
@@ -353,8 +362,9 @@ impl Renderer<'_> {
         }
         let mut labels = Vec::with_capacity(cells.len());
         let mut surfaces = Surfaces::default();
-        self.accel.surfaces(&hits, cells.len(), origin, &all_dirs, &mut surfaces);
-        for (k, (&(slot, (x, y)), &dir)) in cells.iter().zip(dirs).enumerate() {
+        self.accel.surfaces(&hits, cells.len(), origin, &dirs, &mut surfaces);
+        for (k, &(slot, (x, y))) in cells.iter().enumerate() {
+            let dir = lane3(&dirs, k);
             // A `match`, not `Option::map`: see `shade_centre`.
             #[allow(clippy::manual_map)]
             let hit = match hits[k] {
@@ -423,20 +433,24 @@ impl Renderer<'_> {
         let batched = Tracer { point_lights: PointLights::Batched, ..*tracer };
         let tracer = if self.batch_lights { &batched } else { tracer };
         let (mut surfaces, mut responses) = (Surfaces::default(), Responses::default());
+        let origins = splat(origin);
+        let mut draws = [0.0f32; 2 * PACKET_RAYS];
+        // Whether any hit can need more than the point and directional lights.
+        let may_need_more = self.settings.indirect_rays > 0 || self.settings.specular || !self.lights.rects.is_empty();
         let mut batch = HitBatch::default();
         for j in 0..n {
             for i in 0..n {
+                // Per cell, its jitter across then down, in cell order.
+                let draws = &mut draws[..2 * cells.len()];
+                jitter.fill_uniform(draws);
                 let (mut px, mut py) = ([0.0f32; PACKET_RAYS], [0.0f32; PACKET_RAYS]);
                 for (c, &(_, (x, y))) in cells.iter().enumerate() {
-                    let sx = (i as f32 + jitter.uniform()) / n as f32;
-                    let sy = (j as f32 + jitter.uniform()) / n as f32;
+                    let sx = (i as f32 + draws[2 * c]) / n as f32;
+                    let sy = (j as f32 + draws[2 * c + 1]) / n as f32;
                     (px[c], py[c]) = (x as f32 + sx, y as f32 + sy);
                 }
                 let dirs = camera.ray_directions_in(basis, &px, &py);
-                packet.clear();
-                for dir in &dirs[..cells.len()] {
-                    packet.push(origin, *dir, f32::INFINITY);
-                }
+                packet.set_lanes(&origins, &dirs, &[f32::INFINITY; PACKET_RAYS], first_lanes(cells.len()));
                 self.accel.closest_hits(packet, &mut hits);
                 self.lights.emitters_in_reach(packet, &mut emitters);
                 // A pixel's bounce and rect-light strata at this sample (a function, not a
@@ -452,7 +466,7 @@ impl Renderer<'_> {
                 if !self.batch_lights {
                     for (k, sampler) in samplers.iter_mut().enumerate() {
                         let (bounce, rect) = strata(first, n, totals, rotations[k]);
-                        let l = tracer.camera_ray(origin, dirs[k], hits[k], &emitters, bounce, rect, sampler);
+                        let l = tracer.camera_ray(origin, lane3(&dirs, k), hits[k], &emitters, bounce, rect, sampler);
                         sums[k][0] += l[0];
                         sums[k][1] += l[1];
                     }
@@ -467,7 +481,8 @@ impl Renderer<'_> {
                 if !emitters.is_empty() {
                     for (k, sum) in sums.iter_mut().enumerate() {
                         let tmax = if lit >> k & 1 == 1 { surfaces.t[k] } else { f32::INFINITY };
-                        let seen = self.lights.emitter_seen_among(origin, dirs[k], tmax, emitters.iter().copied());
+                        let dir = lane3(&dirs, k);
+                        let seen = self.lights.emitter_seen_among(origin, dir, tmax, emitters.iter().copied());
                         if let Some((_, group, rgb)) = seen {
                             sum[group] += rgb;
                             lit &= !(1 << k);
@@ -476,7 +491,8 @@ impl Renderer<'_> {
                 }
                 batch.fill(&surfaces, &responses, lit, &self.lights.reach);
                 let mut more_lanes = 0u64;
-                for k in super::lanes::bits(lit) {
+                let lanes_needing_more = if may_need_more { lit } else { 0 };
+                for k in bits(lanes_needing_more) {
                     if tracer.hit_has_more_than_point_lights(&responses.get(k), batch.room(k)) {
                         more_lanes |= 1 << k;
                     }
@@ -493,10 +509,10 @@ impl Renderer<'_> {
                     packet,
                     &mut sums,
                 );
-                for k in super::lanes::bits(more_lanes) {
+                for k in bits(more_lanes) {
                     let s = SurfaceHit { surface: surfaces.point(k), response: responses.get(k) };
                     let (bounce, rect) = strata(first, n, totals, rotations[k]);
-                    let l = tracer.hit_radiance(dirs[k], &s, bounce, rect, &mut samplers[k]);
+                    let l = tracer.hit_radiance(lane3(&dirs, k), &s, bounce, rect, &mut samplers[k]);
                     sums[k][0] += l[0];
                     sums[k][1] += l[1];
                 }
