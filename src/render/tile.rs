@@ -55,6 +55,16 @@ fn first_lanes(count: usize) -> u64 {
     if count >= 64 { u64::MAX } else { (1u64 << count) - 1 }
 }
 
+/// A packet's hits in structure of arrays, kept from tile to tile: the buffers of a band are
+/// zeroed once, not per tile (zeroing them per tile was several per cent of an image's
+/// instructions).
+#[derive(Default)]
+pub(super) struct Scratch {
+    surfaces: Surfaces,
+    responses: Responses,
+    batch: HitBatch,
+}
+
 /// What a tile computes at each of its pixels.
 #[derive(Clone, Copy)]
 pub(super) enum Job<'g> {
@@ -300,6 +310,7 @@ impl Renderer<'_> {
         mut sink: B,
     ) {
         let mut packet = RayPacket::new();
+        let mut scratch = Scratch::default();
         let band_rows = (rows - band as u32 * TILE).min(TILE);
         let mut tile = [(0usize, (0u32, 0u32)); PACKET_RAYS];
         for tx in 0..cols.div_ceil(TILE) {
@@ -322,7 +333,7 @@ impl Renderer<'_> {
                     len += 1;
                 }
             }
-            self.trace_tile(camera, &tile[..len], job, &mut packet, &mut sink);
+            self.trace_tile(camera, &tile[..len], job, &mut packet, &mut scratch, &mut sink);
         }
     }
 
@@ -334,6 +345,7 @@ impl Renderer<'_> {
         cells: &[(usize, (u32, u32))],
         job: Job<'_>,
         packet: &mut RayPacket,
+        scratch: &mut Scratch,
         sink: &mut B,
     ) {
         let basis = camera.basis();
@@ -361,8 +373,8 @@ impl Renderer<'_> {
             self.lights.emitters_in_reach(packet, &mut emitters);
         }
         let mut labels = Vec::with_capacity(cells.len());
-        let mut surfaces = Surfaces::default();
-        self.accel.surfaces(&hits, cells.len(), origin, &dirs, &mut surfaces);
+        let surfaces = &mut scratch.surfaces;
+        self.accel.surfaces(&hits, cells.len(), origin, &dirs, surfaces);
         for (k, &(slot, (x, y))) in cells.iter().enumerate() {
             let dir = lane3(&dirs, k);
             // A `match`, not `Option::map`: see `shade_centre`.
@@ -384,7 +396,9 @@ impl Renderer<'_> {
             }
         }
         if let Job::Samples = job {
-            for (&(slot, _), pixel) in cells.iter().zip(self.sample_tile(&tracer, camera, cells, labels, packet)) {
+            for (&(slot, _), pixel) in
+                cells.iter().zip(self.sample_tile(&tracer, camera, cells, labels, packet, scratch))
+            {
                 sink.put(slot, pixel, None);
             }
         }
@@ -408,6 +422,7 @@ impl Renderer<'_> {
         cells: &[(usize, (u32, u32))],
         mut labels: Vec<PixelOut>,
         packet: &mut RayPacket,
+        scratch: &mut Scratch,
     ) -> Vec<PixelOut> {
         let (basis, origin) = (camera.basis(), camera.position);
         let n = self.settings.samples_per_axis.max(1);
@@ -432,12 +447,11 @@ impl Renderer<'_> {
         let mut emitters = Vec::new();
         let batched = Tracer { point_lights: PointLights::Batched, ..*tracer };
         let tracer = if self.batch_lights { &batched } else { tracer };
-        let (mut surfaces, mut responses) = (Surfaces::default(), Responses::default());
+        let Scratch { surfaces, responses, batch } = scratch;
         let origins = splat(origin);
         let mut draws = [0.0f32; 2 * PACKET_RAYS];
         // Whether any hit can need more than the point and directional lights.
         let may_need_more = self.settings.indirect_rays > 0 || self.settings.specular || !self.lights.rects.is_empty();
-        let mut batch = HitBatch::default();
         for j in 0..n {
             for i in 0..n {
                 // Per cell, its jitter across then down, in cell order.
@@ -473,8 +487,8 @@ impl Renderer<'_> {
                     continue;
                 }
                 let count = cells.len();
-                self.accel.surfaces(&hits, count, origin, &dirs, &mut surfaces);
-                self.materials.evaluate(&surfaces, &mut responses);
+                self.accel.surfaces(&hits, count, origin, &dirs, surfaces);
+                self.materials.evaluate(surfaces, responses);
                 // What each ray sees: a rect light's emitter in front of its hit, its hit, or
                 // nothing (`Tracer::primary`, lane by lane).
                 let mut lit = surfaces.lanes;
@@ -489,7 +503,7 @@ impl Renderer<'_> {
                         }
                     }
                 }
-                batch.fill(&surfaces, &responses, lit, &self.lights.reach);
+                batch.fill(surfaces, responses, lit, &self.lights.reach);
                 let mut more_lanes = 0u64;
                 let lanes_needing_more = if may_need_more { lit } else { 0 };
                 for k in bits(lanes_needing_more) {
@@ -499,16 +513,7 @@ impl Renderer<'_> {
                 }
                 let cull = self.settings.light_cull;
                 let blockers = tracer.blockers;
-                self.lights.light_batch(
-                    &self.accel,
-                    &surfaces,
-                    &batch,
-                    cull,
-                    &mut samplers,
-                    blockers,
-                    packet,
-                    &mut sums,
-                );
+                self.lights.light_batch(&self.accel, surfaces, batch, cull, &mut samplers, blockers, packet, &mut sums);
                 for k in bits(more_lanes) {
                     let s = SurfaceHit { surface: surfaces.point(k), response: responses.get(k) };
                     let (bounce, rect) = strata(first, n, totals, rotations[k]);
