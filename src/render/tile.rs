@@ -63,6 +63,10 @@ pub(super) struct Scratch {
     surfaces: Surfaces,
     responses: Responses,
     batch: HitBatch,
+    /// A sampled tile's labels from its centre rays, then its pixels.
+    labels: Vec<PixelOut>,
+    /// A sampled tile's per-pixel streams (seeded on their first draw).
+    samplers: Vec<Sampler>,
 }
 
 /// What a tile computes at each of its pixels.
@@ -372,7 +376,8 @@ impl Renderer<'_> {
         if !matches!(job, Job::Labels) {
             self.lights.emitters_in_reach(packet, &mut emitters);
         }
-        let mut labels = Vec::with_capacity(cells.len());
+        let labels = &mut scratch.labels;
+        labels.clear();
         let surfaces = &mut scratch.surfaces;
         self.accel.surfaces(&hits, cells.len(), origin, &dirs, surfaces);
         for (k, &(slot, (x, y))) in cells.iter().enumerate() {
@@ -396,15 +401,16 @@ impl Renderer<'_> {
             }
         }
         if let Job::Samples = job {
-            for (&(slot, _), pixel) in
-                cells.iter().zip(self.sample_tile(&tracer, camera, cells, labels, packet, scratch))
-            {
+            self.sample_tile(&tracer, camera, cells, packet, scratch);
+            for (&(slot, _), &pixel) in cells.iter().zip(&scratch.labels) {
                 sink.put(slot, pixel, None);
             }
         }
     }
 
-    /// [`Job::Samples`] over a tile whose centre rays gave `labels`: sample `(i, j)` of every
+    /// [`Job::Samples`] over a tile whose centre rays gave `scratch.labels`, which it finishes
+    /// in place (the tile's vectors are kept from tile to tile, not allocated per tile, about
+    /// 1.5 % of a 4-spp image in malloc and free): sample `(i, j)` of every
     /// pixel is traced in one packet. The tile's stream gives every pixel its strata rotations,
     /// then per sample pass each pixel's jitter, in cell order; a pixel's shading draws from
     /// its own stream in the order it would alone, so interleaving the pixels changes nothing
@@ -420,10 +426,9 @@ impl Renderer<'_> {
         tracer: &Tracer<'_>,
         camera: &Camera,
         cells: &[(usize, (u32, u32))],
-        mut labels: Vec<PixelOut>,
         packet: &mut RayPacket,
         scratch: &mut Scratch,
-    ) -> Vec<PixelOut> {
+    ) {
         let (basis, origin) = (camera.basis(), camera.position);
         let n = self.settings.samples_per_axis.max(1);
         let bounce_total = n * n * self.settings.indirect_rays;
@@ -436,18 +441,19 @@ impl Renderer<'_> {
         // such an image (perf, session 11).
         let mut jitter =
             Sampler::of_hashed(tracer.pixel_seed, TILE_STREAM, cells.first().map_or(0, |c| pixel_key(c.1)));
-        let mut samplers: Vec<Sampler> = Vec::with_capacity(cells.len());
-        let mut rotations: Vec<(f32, f32)> = Vec::with_capacity(cells.len());
-        for &(_, pixel) in cells {
+        let Scratch { surfaces, responses, batch, labels, samplers } = scratch;
+        samplers.clear();
+        let mut rotations = [(0.0f32, 0.0f32); PACKET_RAYS];
+        for (&(_, pixel), rotation) in cells.iter().zip(&mut rotations) {
             samplers.push(Sampler::of_hashed(tracer.pixel_seed, PIXEL_STREAM, pixel_key(pixel)));
-            rotations.push((jitter.uniform(), jitter.uniform()));
+            *rotation = (jitter.uniform(), jitter.uniform());
         }
-        let mut sums = vec![[Vec3::ZERO; 2]; cells.len()];
+        let mut sums = [[Vec3::ZERO; 2]; PACKET_RAYS];
+        let sums = &mut sums[..cells.len()];
         let mut hits: [Option<Hit>; PACKET_RAYS] = [None; PACKET_RAYS];
         let mut emitters = Vec::new();
         let batched = Tracer { point_lights: PointLights::Batched, ..*tracer };
         let tracer = if self.batch_lights { &batched } else { tracer };
-        let Scratch { surfaces, responses, batch } = scratch;
         let origins = splat(origin);
         let mut draws = [0.0f32; 2 * PACKET_RAYS];
         // Whether any hit can need more than the point and directional lights.
@@ -513,7 +519,7 @@ impl Renderer<'_> {
                 }
                 let cull = self.settings.light_cull;
                 let blockers = tracer.blockers;
-                self.lights.light_batch(&self.accel, surfaces, batch, cull, &mut samplers, blockers, packet, &mut sums);
+                self.lights.light_batch(&self.accel, surfaces, batch, cull, samplers, blockers, packet, sums);
                 for k in bits(more_lanes) {
                     let s = SurfaceHit { surface: surfaces.point(k), response: responses.get(k) };
                     let (bounce, rect) = strata(first, n, totals, rotations[k]);
@@ -524,10 +530,9 @@ impl Renderer<'_> {
             }
         }
         let inv = 1.0 / (n * n) as f32;
-        for (pixel, sum) in labels.iter_mut().zip(sums) {
-            pixel.radiance = finite_radiance(sum.map(|c| c * inv));
+        for (pixel, sum) in labels.iter_mut().zip(sums.iter()) {
+            pixel.radiance = finite_radiance([sum[0] * inv, sum[1] * inv]);
         }
-        labels
     }
 
     /// Shades pixel `(x, y)` whose centre ray along `dir` found `hit`: `labels` plus radiance,
