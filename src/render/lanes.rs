@@ -7,7 +7,10 @@
 //! as its own variable and writes whole arrays, with choices made by [`select`] and conditions
 //! joined by `&` and `|`. An inner loop over the three axes inside the loop over the lanes, or
 //! a write read back in the same loop through a structure, left it scalar ("cannot identify
-//! array bounds"); `&&` and `||` branch, and the cost model then kept a loop scalar.
+//! array bounds"); `&&` and `||` branch, and the cost model then kept a loop scalar. A store
+//! of a nested [`select`] can come out as AVX masked stores (`vmaskmovps`, one per arm), which
+//! AMD cores run as microcode: check the assembly, and where it happens blend with
+//! [`select_bits`] and [`negate_if`].
 
 use glam::Vec3;
 
