@@ -234,7 +234,7 @@ impl ShearedRay {
         }
     }
 
-    /// The ray of [`ShearedRay::parts`] `(origin, k, shear)`.
+    /// The ray of `ShearedRay::parts` `(origin, k, shear)`.
     #[inline(always)]
     pub(super) fn from_parts(origin: Vec3A, k: [usize; 3], shear: Vec3) -> ShearedRay {
         ShearedRay { origin, k, shear }

@@ -9,7 +9,7 @@
 //! * point: `E = I cos(theta) / d^2`, one shadow ray;
 //! * directional: `E = E_perp cos(theta)`, one shadow ray to infinity;
 //! * rect (one-sided Lambertian emitter of luminance `L`): the unshadowed `E = L x` (the
-//!   polygon's form factor, in closed form, [`rect_irradiance_per_nit`]) times the fraction
+//!   polygon's form factor, in closed form, `rect_irradiance_per_nit`) times the fraction
 //!   of it that gets through, estimated from stratified jittered area samples, one shadow ray
 //!   each (soft shadows): `sum f V / sum f`, `f = cos(theta) cos(theta') / d^2`.
 
@@ -165,7 +165,7 @@ impl RectLight {
 /// `visible` is the estimate (each light's exact unshadowed light times its sampled visible
 /// share); `unshadowed` the exact light with nothing in the way, where it was asked for (else
 /// zero). Their ratio is the point's visible share of its window light: the noisy factor,
-/// which [`super::visibility_filter`] pools over neighbours while `unshadowed` stays exact
+/// which `render::visibility_filter` pools over neighbours while `unshadowed` stays exact
 /// (the split of Heitz et al. 2018, "Combining analytic direct illumination and stochastic
 /// shadows").
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -207,7 +207,7 @@ pub struct LightSet {
 
 impl LightSet {
     /// Prepares `scene`'s lights, each multiplied by `scale[group]`, with the lists of the
-    /// lights that can reach each of its rooms ([`super::reach`]): a shading point weighs and
+    /// lights that can reach each of its rooms (`render::reach`): a shading point weighs and
     /// traces only those of its room. The same light as [`LightSet::new`] in expectation, with
     /// fewer wasted shadow rays and less roulette noise.
     #[must_use]

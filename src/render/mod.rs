@@ -151,7 +151,7 @@ pub struct RenderSettings {
     pub shading: ShadingRate,
     /// With anchors ([`ShadingRate::Decoupled`], [`ShadingRate::Adaptive`]): how many anchors
     /// either way each anchor pools the sampled visibility of its rect lights (windows) with,
-    /// among those on its surface ([`visibility_filter`]); 0 in every preset (each anchor keeps
+    /// among those on its surface (`render::visibility_filter`); 0 in every preset (each anchor keeps
     /// its own estimate), ignored without anchors.
     pub visibility_filter_radius: u32,
     /// Rays for the indirect term of [`Renderer::illuminance_lux`].

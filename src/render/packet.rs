@@ -14,8 +14,8 @@
 //! 3. otherwise the remaining rays are tested until one hits.
 //!
 //! Leaf boxes are tested against every ray, and only the rays that reach a leaf test its
-//! triangles, with the same watertight test as single rays ([`ShearedRay::intersect`], four
-//! rays at a time where they share its axis permutation: [`super::quad`], the same arithmetic
+//! triangles, with the same watertight test as single rays ([`super::accel::ShearedRay::intersect`], four
+//! rays at a time where they share its axis permutation: `render::quad`, the same arithmetic
 //! per lane) and the same per-ray box arithmetic as the single-ray walk. A ray in a packet
 //! therefore tests a superset of the triangles it would test alone: an occlusion answer is the
 //! same, and a closest hit is the same up to which of two triangles at exactly the same
@@ -39,7 +39,7 @@ const INTERVAL_PAD: f32 = 1e-4;
 ///
 /// [`RayPacket::push`] only stores a ray; the forms the tests take (reciprocal directions, the
 /// watertight test's permuted and sheared rays) are computed four rays at a time when the packet
-/// is traced ([`RayPacket::prepare`]). Why: computed ray by ray at each push, they took as long
+/// is traced (`RayPacket::prepare`). Why: computed ray by ray at each push, they took as long
 /// as walking the BVH with the packet of shadow rays.
 #[derive(Clone)]
 pub struct RayPacket {

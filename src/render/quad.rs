@@ -86,7 +86,7 @@ impl QuadRays {
 
     /// Prepares quad `quad` from its rays' origins and directions (structure of arrays; unit
     /// directions without `-0.0` components): lanes `valid` (bits 0..4, lane 0 among them) are
-    /// rays, the others are ignored. The result is [`QuadRays::set`] of each ray's
+    /// rays, the others are ignored. The result is `QuadRays::set` of each ray's
     /// [`ShearedRay::new`], bit for bit: SSE on x86-64, four rays' permutations chosen by lane
     /// masks with the scalar code's comparisons, and the same divisions and products.
     #[inline(always)]

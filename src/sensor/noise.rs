@@ -791,8 +791,8 @@ const ZIG_LAYERS: usize = 256;
 const ZIG_R: f64 = 3.654_152_885_361_009;
 const ZIG_V: f64 = 0.004_928_673_233_99;
 
-/// The ziggurat's layer edges `x[i]` (x[0] the base layer's pseudo-width `v / f(r)`, x[1] = r,
-/// decreasing to x[256] = 0) and densities `f[i] = exp(-x[i]^2 / 2)`, built once.
+/// The ziggurat's layer edges `x[i]` (`x[0]` the base layer's pseudo-width `v / f(r)`, `x[1] = r`,
+/// decreasing to `x[256] = 0`) and densities `f[i] = exp(-x[i]^2 / 2)`, built once.
 struct Ziggurat {
     x: [f64; ZIG_LAYERS + 1],
     f: [f64; ZIG_LAYERS + 1],
