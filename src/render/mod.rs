@@ -151,8 +151,8 @@ pub struct RenderSettings {
     pub shading: ShadingRate,
     /// With anchors ([`ShadingRate::Decoupled`], [`ShadingRate::Adaptive`]): how many anchors
     /// either way each anchor pools the sampled visibility of its rect lights (windows) with,
-    /// among those on its surface (`render::visibility_filter`); 0 in every preset (each anchor keeps
-    /// its own estimate), ignored without anchors.
+    /// among those on its surface (`render::visibility_filter`); 0 in every preset (each
+    /// anchor keeps its own estimate), ignored without anchors.
     pub visibility_filter_radius: u32,
     /// Rays for the indirect term of [`Renderer::illuminance_lux`].
     pub probe_indirect_rays: u32,

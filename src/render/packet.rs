@@ -14,9 +14,9 @@
 //! 3. otherwise the remaining rays are tested until one hits.
 //!
 //! Leaf boxes are tested against every ray, and only the rays that reach a leaf test its
-//! triangles, with the same watertight test as single rays ([`super::accel::ShearedRay::intersect`], four
-//! rays at a time where they share its axis permutation: `render::quad`, the same arithmetic
-//! per lane) and the same per-ray box arithmetic as the single-ray walk. A ray in a packet
+//! triangles, with the same watertight test as single rays
+//! ([`super::accel::ShearedRay::intersect`], four rays at a time where they share its axis
+//! permutation: `render::quad`, the same arithmetic per lane) and the same per-ray box arithmetic as the single-ray walk. A ray in a packet
 //! therefore tests a superset of the triangles it would test alone: an occlusion answer is the
 //! same, and a closest hit is the same up to which of two triangles at exactly the same
 //! distance wins.
