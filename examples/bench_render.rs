@@ -429,6 +429,12 @@ where
     text.parse().map_err(|e| format!("{flag} {text}: {e}").into())
 }
 
+/// The samples per axis of `spp` samples per pixel, when `spp` is a square of at least 1.
+fn spp_axis(spp: u32) -> Option<u32> {
+    let axis = f64::from(spp).sqrt().round() as u32;
+    (axis > 0 && axis * axis == spp).then_some(axis)
+}
+
 fn parse_args() -> BoxResult<Args> {
     let mut args = Args {
         case: None,
@@ -459,9 +465,18 @@ fn parse_args() -> BoxResult<Args> {
                 let v = value()?;
                 let (w, h) = v.split_once('x').ok_or_else(|| format!("--res {v}: expected WxH"))?;
                 (args.width, args.height) = (number(&flag, w)?, number(&flag, h)?);
+                if args.width == 0 || args.height == 0 {
+                    return Err(format!("--res {v}: width and height must be at least 1").into());
+                }
             }
             "--threads" => args.threads = number(&flag, &value()?)?,
-            "--spp" => args.spp = number(&flag, &value()?)?,
+            "--spp" => {
+                let spp: u32 = number(&flag, &value()?)?;
+                if spp_axis(spp).is_none() {
+                    return Err(format!("--spp {spp}: must be a square (1, 4, 9, ...)").into());
+                }
+                args.spp = spp;
+            }
             "--camera-out" => args.camera_out = Some(value()?.into()),
             "--depth-out" => args.depth_out = Some(value()?.into()),
             "--cull" => args.cull = number(&flag, &value()?)?,
@@ -538,10 +553,8 @@ fn run_case(setup: &Setup, args: &Args, case: &str) -> BoxResult<()> {
             (times, tiles.iter().map(Vec::len).sum(), serde_json::json!({ "blocked": blocked }))
         }
         "direct" => {
-            let axis = f64::from(args.spp).sqrt().round() as u32;
-            if axis * axis != args.spp || axis == 0 {
-                return Err(format!("--spp {}: must be a square (1, 4, 9, ...)", args.spp).into());
-            }
+            // `parse_args` refused any other count.
+            let axis = spp_axis(args.spp).unwrap_or(1);
             let mut one_light = setup.scene.clone();
             one_light.lights = vec![setup.light.clone()];
             let settings = RenderSettings {
