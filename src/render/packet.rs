@@ -16,10 +16,10 @@
 //! Leaf boxes are tested against every ray, and only the rays that reach a leaf test its
 //! triangles, with the same watertight test as single rays
 //! ([`super::accel::ShearedRay::intersect`], four rays at a time where they share its axis
-//! permutation: `render::quad`, the same arithmetic per lane) and the same per-ray box arithmetic as the single-ray walk. A ray in a packet
-//! therefore tests a superset of the triangles it would test alone: an occlusion answer is the
-//! same, and a closest hit is the same up to which of two triangles at exactly the same
-//! distance wins.
+//! permutation: `render::quad`, the same arithmetic per lane) and the same per-ray box
+//! arithmetic as the single-ray walk. A ray in a packet therefore tests a superset of the
+//! triangles it would test alone: an occlusion answer is the same, and a closest hit is the
+//! same up to which of two triangles at exactly the same distance wins.
 
 use glam::{Vec3, Vec3A};
 

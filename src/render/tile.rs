@@ -410,10 +410,10 @@ impl Renderer<'_> {
     }
 
     /// [`Job::Samples`] over a tile whose centre rays gave `scratch.labels`, which it finishes
-    /// in place: sample `(i, j)` of every pixel is traced in one packet. The tile's stream gives every pixel its strata rotations,
-    /// then per sample pass each pixel's jitter, in cell order; a pixel's shading draws from
-    /// its own stream in the order it would alone, so interleaving the pixels changes nothing
-    /// there.
+    /// in place: sample `(i, j)` of every pixel is traced in one packet. The tile's stream gives
+    /// every pixel its strata rotations, then per sample pass each pixel's jitter, in cell
+    /// order; a pixel's shading draws from its own stream in the order it would alone, so
+    /// interleaving the pixels changes nothing there.
     ///
     /// A pass lights its hits in three steps: what each ray sees, then the point and
     /// directional lights of all the hits together ([`super::hit_batch`]; their roulette
