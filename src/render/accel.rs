@@ -26,7 +26,7 @@ use obvhs::BvhBuildParams;
 use obvhs::cwbvh::builder::build_cwbvh_from_tris;
 use obvhs::triangle::Triangle;
 
-use super::lanes::{Lanes, Lanes3, N, lane3, negate_if, select, select_bits};
+use super::lanes::{Lanes, Lanes3, N, lane3, negate_if, select};
 use super::wide::{BoxRay, LeafTest, WideBvh, WideNode};
 use crate::scene::Scene;
 
@@ -109,9 +109,9 @@ pub struct Hit {
 /// as [`Accel::surface`] has it, the facing plane normal `ng` where it is zero, or turned to
 /// `ng`'s side.
 ///
-/// The last blends are bitwise ([`select_bits`], [`negate_if`]): with [`select`]'s branches
-/// LLVM turned two of the three stores into AVX masked stores, which AMD cores run as slow
-/// microcode (perf put this function at 6 % of a 4-spp image).
+/// The last blends are bitwise ([`select`], [`negate_if`]): written with branches, two of the
+/// three stores came out as AVX masked stores, which AMD cores run as slow microcode (perf put
+/// this function at 6 % of a 4-spp image).
 #[inline(always)]
 fn normalise_shading_normals(s: &mut Lanes3, ng: &Lanes3) {
     for k in 0..N {
@@ -122,9 +122,9 @@ fn normalise_shading_normals(s: &mut Lanes3, ng: &Lanes3) {
         let (gx, gy, gz) = (ng[0][k], ng[1][k], ng[2][k]);
         let zero = (x == 0.0) & (y == 0.0) & (z == 0.0);
         let behind = x * gx + y * gy + z * gz < 0.0;
-        s[0][k] = select_bits(zero, gx, negate_if(behind, x));
-        s[1][k] = select_bits(zero, gy, negate_if(behind, y));
-        s[2][k] = select_bits(zero, gz, negate_if(behind, z));
+        s[0][k] = select(zero, gx, negate_if(behind, x));
+        s[1][k] = select(zero, gy, negate_if(behind, y));
+        s[2][k] = select(zero, gz, negate_if(behind, z));
     }
 }
 
