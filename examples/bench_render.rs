@@ -432,7 +432,7 @@ where
 /// The samples per axis of `spp` samples per pixel, when `spp` is a square of at least 1.
 fn spp_axis(spp: u32) -> Option<u32> {
     let axis = f64::from(spp).sqrt().round() as u32;
-    (axis > 0 && axis * axis == spp).then_some(axis)
+    (axis > 0 && axis.checked_mul(axis) == Some(spp)).then_some(axis)
 }
 
 fn parse_args() -> BoxResult<Args> {
