@@ -685,6 +685,58 @@ mod properties {
         SCENE.get_or_init(|| room_of_boxes(Vec3::new(6.0, 5.0, 2.6), 5))
     }
 
+    /// The body of `packets_answer_as_single_rays_do`: a packet of `len` rays fanned `spread`
+    /// wide from a camera at `position`, its closest hits and the shadow rays from them to
+    /// `light` against the same rays traced one by one.
+    fn packet_and_single_rays_agree(
+        position: Vec3,
+        yaw: f32,
+        pitch: f32,
+        spread: f32,
+        len: usize,
+        light: Vec3,
+    ) -> Result<(), TestCaseError> {
+        let accel = Accel::build(room());
+        let cam = camera(8, 8, position, yaw, pitch);
+        let (forward, right, up) = cam.basis();
+        let origin = cam.position;
+        let dirs: Vec<Vec3> = (0..len)
+            .map(|i| {
+                let (u, v) = ((i % 8) as f32 / 7.0 - 0.5, (i / 8) as f32 / 7.0 - 0.5);
+                (forward + (right * u + up * v) * spread).normalize()
+            })
+            .collect();
+        let mut packet = RayPacket::new();
+        for d in &dirs {
+            packet.push(origin, *d, f32::INFINITY);
+        }
+        let mut hits = [None; PACKET_RAYS];
+        accel.closest_hits(&mut packet, &mut hits);
+        let mut shadow = RayPacket::new();
+        let mut expected = 0u64;
+        for (i, d) in dirs.iter().enumerate() {
+            let single = accel.closest_hit(origin, *d, f32::INFINITY);
+            prop_assert_eq!(hits[i].map(|h| h.t.to_bits()), single.map(|h| h.t.to_bits()), "ray {}", i);
+            let p = origin + *d * single.map_or(1.0, |h| h.t) * 0.999;
+            let to = light - p;
+            let (dir, dist) = (to.normalize_or(Vec3::Z), to.length());
+            shadow.push(p, dir, dist);
+            expected |= u64::from(accel.occluded(p, dir, dist)) << i;
+        }
+        prop_assert_eq!(accel.occluded_packet(&mut shadow), expected);
+        Ok(())
+    }
+
+    /// A case the property found: ray 11 meets two triangles whose distances differ by one ulp
+    /// where two leaf boxes touch. The single ray pruned the box of the nearer one (its rounded
+    /// entry distance lay past the farther hit) while the packet, walking in another order,
+    /// found it.
+    #[test]
+    fn a_packet_and_a_single_ray_agree_where_two_leaf_boxes_touch() {
+        let position = Vec3::new(0.43144146, 3.6721191, 0.3);
+        packet_and_single_rays_agree(position, 0.0, 0.0, 2.0196948, 12, Vec3::splat(0.1)).unwrap();
+    }
+
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(64))]
         /// From anywhere inside a closed room, looking anywhere, every pixel hits geometry, and
@@ -713,35 +765,7 @@ mod properties {
             yaw in -180f32..180.0, pitch in -90f32..=90.0, spread in 0.001f32..3.0,
             len in 1usize..=PACKET_RAYS, light in (0.1f32..5.9, 0.1f32..4.9, 0.1f32..2.5),
         ) {
-            let accel = Accel::build(room());
-            let cam = camera(8, 8, Vec3::new(x, y, z), yaw, pitch);
-            let (forward, right, up) = cam.basis();
-            let origin = cam.position;
-            let dirs: Vec<Vec3> = (0..len)
-                .map(|i| {
-                    let (u, v) = ((i % 8) as f32 / 7.0 - 0.5, (i / 8) as f32 / 7.0 - 0.5);
-                    (forward + (right * u + up * v) * spread).normalize()
-                })
-                .collect();
-            let mut packet = RayPacket::new();
-            for d in &dirs {
-                packet.push(origin, *d, f32::INFINITY);
-            }
-            let mut hits = [None; PACKET_RAYS];
-            accel.closest_hits(&mut packet, &mut hits);
-            let light = Vec3::new(light.0, light.1, light.2);
-            let mut shadow = RayPacket::new();
-            let mut expected = 0u64;
-            for (i, d) in dirs.iter().enumerate() {
-                let single = accel.closest_hit(origin, *d, f32::INFINITY);
-                prop_assert_eq!(hits[i].map(|h| h.t.to_bits()), single.map(|h| h.t.to_bits()), "ray {}", i);
-                let p = origin + *d * single.map_or(1.0, |h| h.t) * 0.999;
-                let to = light - p;
-                let (dir, dist) = (to.normalize_or(Vec3::Z), to.length());
-                shadow.push(p, dir, dist);
-                expected |= u64::from(accel.occluded(p, dir, dist)) << i;
-            }
-            prop_assert_eq!(accel.occluded_packet(&mut shadow), expected);
+            packet_and_single_rays_agree(Vec3::new(x, y, z), yaw, pitch, spread, len, Vec3::new(light.0, light.1, light.2))?;
         }
 
         /// Culling rect emitters per packet keeps every one a ray of the packet sees: each ray

@@ -26,7 +26,7 @@ use glam::{Vec3, Vec3A};
 use super::accel::{Accel, Hit, positive_zeros};
 use super::lanes::{Lanes, Lanes3, bits, lane3};
 use super::quad::QuadRays;
-use super::wide::{BoxRay, Child, LANES, WideNode};
+use super::wide::{BoxRay, Child, LANES, WideNode, entry_limit};
 
 /// Rays per packet: an 8 x 8 pixel tile; one bit each in a `u64` mask.
 pub const PACKET_RAYS: usize = 64;
@@ -374,7 +374,7 @@ impl PacketBounds {
     #[inline(always)]
     fn rejects(&self, lo: Vec3, hi: Vec3) -> bool {
         let mut enter = 0.0f32;
-        let mut exit = self.tmax;
+        let mut exit = entry_limit(self.tmax);
         for axis in 0..3 {
             if !self.bounded[axis] {
                 continue;
@@ -441,7 +441,7 @@ impl PacketBounds {
                 // |x| * pad, as `f32::abs` (clear the sign bit) then the product.
                 let widen = |x: __m128| _mm_mul_ps(_mm_andnot_ps(sign, x), pad);
                 let mut enter = _mm_set1_ps(0.0);
-                let mut exit = _mm_set1_ps(self.tmax);
+                let mut exit = _mm_set1_ps(entry_limit(self.tmax));
                 for axis in 0..3 {
                     if !self.bounded[axis] {
                         continue;

@@ -17,7 +17,10 @@
 //! Robustness: a ray that hits a triangle must enter every box above it. The boxes are exact
 //! and the slab distances are widened by Ize's bound ("Robust BVH Ray Traversal", JCGT 2(2),
 //! 2013): the far distance is scaled by `1 + 2 gamma(3)`, which covers the rounding of the
-//! subtraction, the product with the rounded reciprocal and the reciprocal itself.
+//! subtraction, the product with the rounded reciprocal and the reciprocal itself. A closest-hit
+//! walk also widens the other end: a box is pruned only when it begins past the nearest hit so
+//! far by more than [`TMAX_SCALE`], so every walk order (one ray, or a packet) finds the same
+//! nearest triangle.
 
 use glam::{Vec3, Vec3A};
 use obvhs::cwbvh::CwBvh;
@@ -30,6 +33,25 @@ pub(super) const LANES: usize = 8;
 /// `1 + 2 gamma(3)` with `gamma(n) = n u / (1 - n u)`, `u = 2^-24`: Ize's factor for the far
 /// slab distance, plus one ulp for the rounding of the product with it.
 const FAR_SCALE: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5) + f32::EPSILON;
+
+/// How far past a ray's `tmax` a box may begin and still be entered: `1 + 64 u`.
+///
+/// Why pad `tmax` at all: a closest-hit walk shrinks `tmax` to the nearest hit so far and prunes
+/// every box that begins past it. A box's entry distance is rounded up by as much as
+/// `gamma(3)`, and a hit's distance from the watertight test by a few `u` either way, so a
+/// triangle lying on a box's face can be nearer than the current hit while the box's rounded
+/// entry lies past it. Unpadded, whether that triangle is found depended on the order of the
+/// walk: a packet and a single ray could report hits one ulp apart. `64 u` covers both roundings
+/// for any ray that is not grazing its triangle; the only cost is a leaf tested now and then
+/// whose triangles all lie a few ulps too far.
+const TMAX_SCALE: f32 = 1.0 + 32.0 * f32::EPSILON;
+
+/// The farthest entry distance a box test accepts for a ray whose nearest hit may lie at
+/// `tmax` ([`TMAX_SCALE`]); `+inf` stays `+inf`.
+#[inline(always)]
+pub(super) fn entry_limit(tmax: f32) -> f32 {
+    tmax * TMAX_SCALE
+}
 
 /// A leaf child's `count` is its number of triangles (1..); an inner child's is 0.
 const INNER: u32 = 0;
@@ -153,7 +175,7 @@ impl WideNode {
             // load or store touches four floats at `half..half + 4` of an eight-float array.
             unsafe {
                 let mut near = _mm_setzero_ps();
-                let mut far = _mm_set1_ps(tmax);
+                let mut far = _mm_set1_ps(entry_limit(tmax));
                 for (axis, (first, second)) in planes.iter().enumerate() {
                     let o = _mm_set1_ps(ray.origin[axis]);
                     let inv = _mm_set1_ps(ray.inv[axis]);
@@ -180,7 +202,7 @@ impl WideNode {
     /// for the packet traversal, which tests rays one by one against a child.
     #[inline(always)]
     pub(super) fn lane_enter(&self, lane: usize, ray: &BoxRay, tmax: f32) -> Option<f32> {
-        let (mut near, mut far) = (0.0f32, tmax);
+        let (mut near, mut far) = (0.0f32, entry_limit(tmax));
         for axis in 0..3 {
             let (first, second) = self.planes(ray, axis);
             let (o, inv) = (ray.origin[axis], ray.inv[axis]);
@@ -240,7 +262,7 @@ impl WideNode {
         unsafe {
             let load = |a: &[f32; PACKET_RAYS]| super::sse::load(a, at);
             let mut near = _mm_setzero_ps();
-            let mut far = load(tmax);
+            let mut far = _mm_mul_ps(load(tmax), _mm_set1_ps(TMAX_SCALE));
             for axis in 0..3 {
                 let (o, i) = (load(&origin[axis]), load(&inv[axis]));
                 let (lo, hi) = (_mm_set1_ps(self.lo[axis][lane]), _mm_set1_ps(self.hi[axis][lane]));
@@ -353,7 +375,7 @@ impl WideBvh {
             // The next inner node to enter; leaves are tested as they come off the stack.
             node = loop {
                 let Some(entry) = stack.pop() else { return };
-                if entry.t > *tmax {
+                if entry.t > entry_limit(*tmax) {
                     continue;
                 }
                 if entry.count == INNER {
