@@ -53,11 +53,11 @@ use scene_gen::generate::generate;
 use scene_gen::library::Library;
 use scene_gen::radiometry::capture;
 use scene_gen::render::accel::Accel;
-use scene_gen::render::packet::{PACKET_RAYS, RayPacket};
 use scene_gen::render::{Camera, Frame, RenderSettings, Renderer, ShadingRate};
 use scene_gen::scene::{Light, LightGroup, LightKind, Scene};
 use scene_gen::sensor::Catalog;
 use scene_gen::simd::Dispatch;
+use scene_gen::trace::packet::{PACKET_RAYS, RayPacket};
 use scene_gen::trajectory::{self, TrajectoryParams};
 
 type BoxResult<T> = Result<T, Box<dyn std::error::Error + Send + Sync>>;
@@ -338,7 +338,7 @@ fn blocked_in_tiles(accel: &Accel, tiles: &[Vec<ShadowRay>], traversal: Traversa
 /// FNV-1a of every buffer of a frame (radiance, depth, ids, normals, as little-endian bytes):
 /// a change of any bit of the output changes it, so speed-ups that must keep the output
 /// bit-identical can be checked against a build from before them.
-fn frame_hash(frame: &scene_gen::render::Frame) -> String {
+fn frame_hash(frame: &Frame) -> String {
     let mut bytes = Vec::new();
     for c in frame.day_nit.iter().chain(&frame.night_nit).chain(&frame.normal) {
         bytes.extend(c.iter().flat_map(|v| v.to_le_bytes()));

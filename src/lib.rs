@@ -1,65 +1,33 @@
 //! scene-gen: seeded indoor environments and a physical camera simulator, for designing
 //! cameras for a task.
 //!
-//! The pipeline of DESIGN.md and the module that owns each stage:
+//! This crate is the facade: it re-exports every stage's modules under one name, so users of
+//! the library write `scene_gen::render::Renderer` whichever crate holds it. The stages are
+//! crates of their own, each depending only on the ones before it:
 //!
 //! ```text
-//! seed + envelope ─► floorplan ─► structure ─► placement ─► decor, lights ─► Scene ─┬─► export: glTF/GLB, OBJ, USD, plan.png
-//!  (config)          (library:    walls,       (library:    day / night          │
-//!                     rooms/)     thresholds    furniture/)                      ├─► trajectory: the agent's walk
-//!                                                                                └─► render (obvhs BVH): radiance per light group,
-//!                                                                                      depth, instance ids
-//!                                                      camera_spec + sensor catalog ──► radiometry: nit → lux → photons → e-
-//!                                                                                      → sensor noise model → DN
-//!                                                                                    ──► detection (AP), orb (features)
-//! measured data (EMVA 1288, CSV) ─► calibration ─► gap workflow ─► sensor model (TOML)
+//! scene-gen-core        rng, seeds, simd, io, stats
+//! scene-gen-scene       seed + envelope ─► floorplan ─► structure ─► placement ─► lights ─► Scene ─► trajectory
+//! scene-gen-export      Scene ─► glTF/GLB, OBJ, USD, plan.png
+//! scene-gen-trace       triangles ─► BVH ─► hits (single rays and packets)
+//! scene-gen-render      Scene + pinhole ─► radiance per light group, depth, instance and class ids
+//! scene-gen-camera      camera spec + catalog: radiance ─► optics ─► photons ─► e- ─► noise ─► DN ─► ISP
+//! scene-gen-perception  frames ─► ORB features and matches, detections, COCO AP, thresholds seen
+//! scene-gen-measure     EMVA 1288 data ─► calibration ─► gap workflow ─► sensor model; test charts
+//! scene-gen-design      evaluate (fitness by day and night), optimize (GA), serve, dataset
 //! ```
 //!
-//! Generation:
-//! * [`config`]: what is asked for ([`config::GeneratorConfig`]) and its validation.
-//! * [`library`]: the room-type and furniture libraries (embedded, or folders at run time).
-//! * [`generate`]: runs the stages in order and returns a [`scene::Scene`].
-//! * [`floorplan`], [`structure`], [`placement`], [`decor`], [`lights`]: the stages.
-//! * [`assets`]: furniture OBJ meshes (read with tobj) turned into scene meshes.
-//! * [`materials`]: named surfaces to PBR materials with seeded procedural textures
-//!   ([`textures`]).
-//! * [`scene`]: the hub type; [`manifest`]: its `scene.json` form.
-//! * [`export`]: glTF/GLB, OBJ, USD (through usd-core), the plan picture, atomic writes.
-//!
-//! Camera simulation:
-//! * [`camera_spec`]: camera candidates (sensor, lens, mounting, exposure) from TOML or the
-//!   inline `SENSOR,key=value` form, resolved against the catalog.
-//! * [`house`]: a seeded house with the agent's walk, where render, evaluate and dataset start.
-//! * [`trajectory`]: the agent's walk through every room and door (the evaluator's poses).
-//! * [`render`]: the CPU ray tracer (radiance per light group, depth, instance/class ids).
-//! * [`optics`]: diffraction, defocus and motion blur of the sensor-plane irradiance.
-//! * [`radiometry`]: scene luminance to sensor illuminance, photons, electrons and DN.
-//! * [`sensor`]: the sensor catalog and the EMVA 1288 noise model (photons to DN), shared by the
-//!   renderer, the calibration and the gap workflow.
-//!
-//! Tasks and measurement:
-//! * [`detection`]: ground truth from instance buffers, the built-in detectability model,
-//!   COCO evaluation (pycocotools-exact AP) and threshold visibility.
-//! * [`orb`]: OpenCV-compatible ORB features, cross-checked matching, RANSAC inliers.
-//! * [`evaluate`]: a camera candidate's TaCOS scores (threshold accuracy, AP@0.5, ORB inliers)
-//!   and fitness over seeded houses (`scene-gen evaluate`), cached per process.
-//! * [`calibration`]: EMVA 1288 descriptors and photon-transfer CSVs to measured sensor
-//!   parameters (`scene-gen calibrate`).
-//! * [`gap`]: the sim-vs-measured gap workflow (`scene-gen gap`): names the effects the sensor
-//!   model misses and adds them.
-//! * [`dataset`]: COCO datasets (images, depth, instance masks, RLE annotations) over seed
-//!   ranges, resumable and sharded across machines (`scene-gen dataset`).
-//! * [`target`]: the same gap loop for images of a test chart (`scene-gen target`): lens blur,
-//!   motion blur, illumination fall-off and single-frame noise effects.
-//!
-//! Design:
-//! * [`optimize`]: the TaCOS genetic algorithm and a random-search baseline over camera genes
-//!   (`scene-gen optimize`), resumable; [`plot`] draws its training curve.
-//! * [`serve`]: the evaluator as a JSON-lines server any optimizer can drive (`scene-gen serve`).
-//!
-//! Speed:
-//! * [`simd`]: run-time choice of an AVX2 + FMA clone of the render and sensor hot loops
-//!   (bit-identical output; `SCENE_GEN_NO_SIMD=1` forces the baseline).
+//! Where each module comes from:
+//! * scene-gen-core: [`rng`], [`seeds`], [`simd`], [`io`], [`stats`].
+//! * scene-gen-scene: [`config`], [`library`], [`assets`], [`materials`], [`textures`],
+//!   [`generate`], [`floorplan`], [`structure`], [`placement`], [`decor`], [`lights`],
+//!   [`scene`], [`manifest`], [`trajectory`], [`house`].
+//! * scene-gen-export: [`export`]. scene-gen-trace: [`trace`]. scene-gen-render: [`render`].
+//! * scene-gen-camera: [`camera_spec`], [`sensor`], [`optics`], [`radiometry`], [`isp`],
+//!   [`capture`].
+//! * scene-gen-perception: [`orb`], [`detection`].
+//! * scene-gen-measure: [`calibration`], [`gap`], [`target`].
+//! * scene-gen-design: [`evaluate`], [`optimize`], [`serve`], [`dataset`], [`plot`].
 //!
 //! ```no_run
 //! use scene_gen::{config::GeneratorConfig, generate::generate, library::Library};
@@ -69,38 +37,15 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
-pub mod assets;
-pub mod calibration;
-pub mod camera_spec;
-pub mod config;
-pub mod dataset;
-pub mod decor;
-pub mod detection;
-pub mod evaluate;
-pub mod export;
-pub mod floorplan;
-pub mod gap;
-pub mod generate;
-pub mod house;
-pub mod isp;
-pub mod library;
-pub mod lights;
-pub mod manifest;
-pub mod materials;
-pub mod optics;
-pub mod optimize;
-pub mod orb;
-pub mod placement;
-pub mod plot;
-pub mod radiometry;
-pub mod render;
-pub mod rng;
-pub mod scene;
-pub mod seeds;
-pub mod sensor;
-pub mod serve;
-pub mod simd;
-pub mod structure;
-pub mod target;
-pub mod textures;
-pub mod trajectory;
+pub use scene_gen_camera::{camera_spec, capture, isp, optics, radiometry, sensor};
+pub use scene_gen_core::{io, rng, seeds, simd, stats};
+pub use scene_gen_design::{dataset, evaluate, optimize, plot, serve};
+pub use scene_gen_export as export;
+pub use scene_gen_measure::{calibration, gap, target};
+pub use scene_gen_perception::{detection, orb};
+pub use scene_gen_render as render;
+pub use scene_gen_scene::{
+    assets, config, decor, floorplan, generate, house, library, lights, manifest, materials, placement, scene,
+    structure, textures, trajectory,
+};
+pub use scene_gen_trace as trace;

@@ -385,7 +385,7 @@ fn day_scores_at_least_night_on_the_same_camera_and_render_speckle_is_not_sensor
     use scene_gen::camera_spec::CameraSpec;
     use scene_gen::detection::output_noise::output_noise_by_level;
     use scene_gen::isp::{Isp, OutputRule, to_8bit};
-    use scene_gen::radiometry::{Capture, photons_per_pixel};
+    use scene_gen::radiometry::{SensorImage, photons_per_pixel};
     let resolved = CameraSpec { max_width_px: Some(320), ..CameraSpec::new("IMX174") }
         .resolve(&scene_gen::sensor::Catalog::embedded())
         .unwrap();
@@ -444,7 +444,7 @@ fn day_scores_at_least_night_on_the_same_camera_and_render_speckle_is_not_sensor
                 })
                 .collect();
             let dn = model.simulate(&photons, w as usize, h as usize, spec.exposure_s, gain_db, frame);
-            let cap = Capture { width: w, height: h, channels: 1, bits: model.adc_bits, dn };
+            let cap = SensorImage { width: w, height: h, channels: 1, bits: model.adc_bits, dn };
             let image: Vec<f32> = to_8bit(&cap, OutputRule::Isp, &isp).into_iter().map(f32::from).collect();
             let input = DetectorInput {
                 image_dn: &image,

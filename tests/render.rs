@@ -5,7 +5,6 @@ use std::f32::consts::PI;
 
 use glam::{Mat4, Vec2, Vec3};
 use scene_gen::render::accel::NO_TRIANGLE;
-use scene_gen::render::packet::{PACKET_RAYS, RayPacket};
 use scene_gen::render::test_util::{
     add_material, add_mesh, box_primitive, camera, directional_light, empty_scene, point_light, quad, rect_light,
     room_of_boxes,
@@ -15,6 +14,7 @@ use scene_gen::render::{
     probe_points,
 };
 use scene_gen::scene::{LightGroup, Object, ObjectClass, Primitive, Room, Scene, Semantic, Texture};
+use scene_gen::trace::packet::{PACKET_RAYS, RayPacket};
 
 const ALBEDO: f32 = 0.5;
 
@@ -816,7 +816,7 @@ mod properties {
         /// (`Accel::blocker`'s hint): not on an arbitrary one, not on the one that blocked the
         /// previous ray of a fan, not on none; and a triangle named as the blocker of a ray,
         /// given back as the hint, is named again. (Grazing rays, which obvhs' own box test
-        /// could drop, are checked against every triangle in `render::wide`'s tests.)
+        /// could drop, are checked against every triangle in the tests of scene-gen-trace's `wide` module.)
         #[test]
         fn shadow_hints_never_change_the_answer(
             x in 0.2f32..5.8, y in 0.2f32..4.8, z in 0.3f32..2.5,

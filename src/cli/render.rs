@@ -43,7 +43,7 @@ use scene_gen::library::Library;
 use scene_gen::lights::TARGET_PLANE_M;
 use scene_gen::manifest::Manifest;
 use scene_gen::optics::{OpticsInput, agent_velocity};
-use scene_gen::radiometry::{Capture, capture_frame};
+use scene_gen::radiometry::{SensorImage, capture_frame};
 use scene_gen::render::{RenderSettings, Renderer};
 use scene_gen::scene::{LightGroup, MANIFEST_SCHEMA, Scene};
 use scene_gen::sensor::Catalog;
@@ -264,7 +264,7 @@ fn sidecar<'a>(
     scene: &Scene,
     k: u32,
     name: &'a str,
-    cap: &Capture,
+    cap: &SensorImage,
     png_bit_depth: u8,
     pose: &Pose,
     gain_db: f64,

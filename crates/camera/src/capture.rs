@@ -1,0 +1,303 @@
+//! The capture stage: a house, a camera and its lighting scenarios in, frames out.
+//!
+//! Every command that looks at a house through a camera (`render`, `dataset`, `evaluate`)
+//! runs the same chain, and this module is the only place that wires it:
+//!
+//! ```text
+//! pose ─► Renderer (radiance per light group, depth, ids, normals)
+//!           └─► per scenario: lights scaled to the target lux ─► optics ─► photons ─► e-
+//!                              ─► sensor noise ─► DN (SensorImage) ─► ISP ─► 8-bit image
+//! ```
+//!
+//! A [`Capture`] is built once per house and camera: it builds the BVH, measures how far each
+//! light group must be scaled to light the table-height plane at its scenario's target (20 lux
+//! by day, 2 lux by night, [`ScenarioLight`]), and sets the fixed ISP of each scenario. Each
+//! pose is then traced once ([`Capture::render`]); every scenario is a weighted sum of that one
+//! trace, so day and night cost one render.
+//!
+//! Temporal noise is drawn per frame and scenario from a stream named by the caller's label
+//! ([`Capture::frame_seed`]), so two commands that want different noise (a dataset and an
+//! evaluation of the same house) get it, and each gets the same bytes on every run.
+
+use glam::Vec3;
+use scene_gen_render::{Camera, Frame, RenderError, RenderSettings, Renderer, measure_mean_illuminance};
+use scene_gen_scene::lights::{DAY_TARGET_LUX, NIGHT_TARGET_LUX, TARGET_PLANE_M};
+use scene_gen_scene::scene::{LightGroup, Scene};
+use scene_gen_scene::trajectory::Pose;
+
+use crate::camera_spec::{NoiseKind, ResolvedCamera};
+use crate::isp::{self, Isp, OutputRule};
+use crate::optics::{OpticsInput, agent_velocity};
+use crate::radiometry::{SensorImage, capture_frame};
+
+/// Why a capture could not be set up or a frame not be taken.
+#[derive(Debug, thiserror::Error)]
+pub enum CaptureError {
+    #[error("rendering house {seed}: {source}")]
+    Render {
+        seed: u64,
+        #[source]
+        source: RenderError,
+    },
+    #[error("the {group:?} lights give no light on the {TARGET_PLANE_M} m plane")]
+    NoLight { group: LightGroup },
+}
+
+/// How one light group is scaled for its scenario: the lights of `group` scaled by `scale` so
+/// the mean illuminance on the [`TARGET_PLANE_M`] plane, `nominal_lux` as generated, becomes
+/// `target_lux`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ScenarioLight {
+    pub group: LightGroup,
+    pub nominal_lux: f32,
+    pub scale: f32,
+    pub target_lux: f32,
+}
+
+impl ScenarioLight {
+    /// The scenario's name in file names and noise streams: `day` or `night`.
+    #[must_use]
+    pub fn name(&self) -> &'static str {
+        scenario_name(self.group)
+    }
+
+    /// The scenario's radiance of a frame: its group's radiance, scaled.
+    #[must_use]
+    pub fn radiance(&self, frame: &Frame) -> Vec<[f32; 3]> {
+        match self.group {
+            LightGroup::Day => frame.mix(self.scale, 0.0),
+            LightGroup::Night => frame.mix(0.0, self.scale),
+        }
+    }
+}
+
+/// `day` or `night`.
+#[must_use]
+pub fn scenario_name(group: LightGroup) -> &'static str {
+    match group {
+        LightGroup::Day => "day",
+        LightGroup::Night => "night",
+    }
+}
+
+/// The target illuminance of a light group's scenario on the table-height plane: 20 lux by day,
+/// 2 lux by night (the reference system's scenarios).
+#[must_use]
+pub fn target_lux(group: LightGroup) -> f32 {
+    match group {
+        LightGroup::Day => DAY_TARGET_LUX,
+        LightGroup::Night => NIGHT_TARGET_LUX,
+    }
+}
+
+/// The scale of each group's lights that brings the mean illuminance on the table-height plane
+/// to its scenario's target ([`target_lux`]), in the order of `groups`.
+///
+/// # Errors
+/// A render error of the probe rays, or [`CaptureError::NoLight`] when a group gives no light.
+pub fn light_scales(
+    renderer: &Renderer<'_>,
+    seed: u64,
+    groups: &[LightGroup],
+) -> Result<Vec<ScenarioLight>, CaptureError> {
+    groups
+        .iter()
+        .map(|&group| {
+            let target = target_lux(group);
+            let nominal = measure_mean_illuminance(renderer, group, TARGET_PLANE_M)
+                .map_err(|source| CaptureError::Render { seed, source })?;
+            if nominal <= 0.0 {
+                return Err(CaptureError::NoLight { group });
+            }
+            Ok(ScenarioLight { group, nominal_lux: nominal, scale: target / nominal, target_lux: target })
+        })
+        .collect()
+}
+
+/// One scenario of a capture: its light, gain and ISP.
+#[derive(Clone, Copy, Debug)]
+pub struct Scenario {
+    pub light: ScenarioLight,
+    /// Analogue gain, dB (the camera spec's day or night gain).
+    pub gain_db: f64,
+    /// The fixed ISP of this camera at this gain and target illuminance.
+    pub isp: Isp,
+}
+
+/// A camera in a house under one or more lighting scenarios (see the module docs).
+pub struct Capture<'a> {
+    renderer: Renderer<'a>,
+    camera: &'a ResolvedCamera,
+    scenarios: Vec<Scenario>,
+    /// Seed of the sensor instance's fixed patterns (the house seed).
+    pattern_seed: u64,
+    /// Walking speed of the agent, m/s, for motion blur.
+    walk_speed_m_s: f32,
+    /// Prefix of the temporal-noise streams ([`Capture::frame_seed`]).
+    noise_label: String,
+}
+
+impl std::fmt::Debug for Capture<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Capture")
+            .field("camera", &self.camera.sensor.model)
+            .field("scenarios", &self.scenarios)
+            .finish_non_exhaustive()
+    }
+}
+
+impl<'a> Capture<'a> {
+    /// Prepares `camera` in `scene` for the scenarios of `groups` (in that order), rendering
+    /// with `settings`; the agent walks at `walk_speed_m_s`. Temporal noise streams are named
+    /// `{noise_label}{key}/{scenario}` ([`Capture::frame_seed`]).
+    ///
+    /// # Errors
+    /// [`CaptureError`] when the light probe fails or a group gives no light.
+    pub fn new(
+        scene: &'a Scene,
+        camera: &'a ResolvedCamera,
+        groups: &[LightGroup],
+        settings: RenderSettings,
+        walk_speed_m_s: f32,
+        noise_label: impl Into<String>,
+    ) -> Result<Capture<'a>, CaptureError> {
+        let renderer = Renderer::new(scene, settings);
+        let channels = if camera.spec.noise == NoiseKind::Affine { 3 } else { 1 };
+        let scenarios = light_scales(&renderer, scene.seed, groups)?
+            .into_iter()
+            .map(|light| {
+                let gain_db = match light.group {
+                    LightGroup::Day => camera.spec.gain_day_db,
+                    LightGroup::Night => camera.spec.gain_night_db,
+                };
+                let isp = Isp::for_scenario(camera, gain_db, f64::from(light.target_lux), channels);
+                Scenario { light, gain_db, isp }
+            })
+            .collect();
+        Ok(Capture {
+            renderer,
+            camera,
+            scenarios,
+            pattern_seed: scene.seed,
+            walk_speed_m_s,
+            noise_label: noise_label.into(),
+        })
+    }
+
+    /// The renderer, for passes beyond a frame (ids over a box, labels only).
+    #[must_use]
+    pub fn renderer(&self) -> &Renderer<'a> {
+        &self.renderer
+    }
+
+    /// The camera being simulated.
+    #[must_use]
+    pub fn camera(&self) -> &ResolvedCamera {
+        self.camera
+    }
+
+    /// The scenarios, in the order they were asked for.
+    #[must_use]
+    pub fn scenarios(&self) -> &[Scenario] {
+        &self.scenarios
+    }
+
+    /// The pinhole of the camera at `pose`.
+    #[must_use]
+    pub fn pinhole(&self, pose: &Pose) -> Camera {
+        self.camera.camera_at(pose)
+    }
+
+    /// Renders the view from `pose`: radiance per light group, depth, ids and normals.
+    ///
+    /// # Errors
+    /// [`CaptureError::Render`].
+    pub fn render(&self, pinhole: &Camera) -> Result<Frame, CaptureError> {
+        self.renderer.render(pinhole).map_err(|source| self.render_error(source))
+    }
+
+    /// [`Capture::render`] into a frame whose buffers are reused.
+    ///
+    /// # Errors
+    /// [`CaptureError::Render`].
+    pub fn render_into(&self, pinhole: &Camera, frame: &mut Frame) -> Result<(), CaptureError> {
+        self.renderer.render_into(pinhole, frame).map_err(|source| self.render_error(source))
+    }
+
+    fn render_error(&self, source: RenderError) -> CaptureError {
+        CaptureError::Render { seed: self.pattern_seed, source }
+    }
+
+    /// The temporal-noise seed of frame `key` in scenario `scenario`: the FNV-1a hash of
+    /// `{noise_label}{key}/{day|night}`.
+    #[must_use]
+    pub fn frame_seed(&self, key: u64, scenario: &Scenario) -> u64 {
+        scene_gen_core::rng::fnv1a64(format!("{}{key}/{}", self.noise_label, scenario.light.name()).as_bytes())
+    }
+
+    /// The camera's velocity on the walk at `pose`, for motion blur.
+    fn velocity(&self, pose: &Pose) -> Vec3 {
+        agent_velocity(&self.camera.spec, pose.yaw_deg, self.walk_speed_m_s)
+    }
+
+    /// The sensor's digital numbers of `frame` (rendered from `pose` through `pinhole`) in
+    /// `scenario`, with the temporal noise of frame `key`.
+    #[must_use]
+    pub fn sensor_image(
+        &self,
+        frame: &Frame,
+        pinhole: &Camera,
+        pose: &Pose,
+        scenario: &Scenario,
+        key: u64,
+    ) -> SensorImage {
+        let optics = OpticsInput { depth_m: &frame.depth_m, velocity_m_s: self.velocity(pose) };
+        capture_frame(
+            self.camera,
+            pinhole,
+            &scenario.light.radiance(frame),
+            Some(optics),
+            scenario.gain_db,
+            self.pattern_seed,
+            self.frame_seed(key, scenario),
+        )
+    }
+
+    /// The 8-bit images of every scenario of `frame` under `rule`, the bytes of
+    /// [`Capture::sensor_image`] through [`isp::to_8bit`], by the fused row path of
+    /// [`isp::capture_8bit`] where it applies.
+    #[must_use]
+    pub fn images_8bit(
+        &self,
+        frame: &Frame,
+        pinhole: &Camera,
+        pose: &Pose,
+        key: u64,
+        rule: OutputRule,
+    ) -> Vec<Vec<u8>> {
+        let seeds: Vec<u64> = self.scenarios.iter().map(|s| self.frame_seed(key, s)).collect();
+        let scenarios: Vec<isp::Scenario<'_>> = self
+            .scenarios
+            .iter()
+            .zip(&seeds)
+            .map(|(s, &frame_seed)| isp::Scenario {
+                day_weight: if s.light.group == LightGroup::Day { s.light.scale } else { 0.0 },
+                night_weight: if s.light.group == LightGroup::Day { 0.0 } else { s.light.scale },
+                gain_db: s.gain_db,
+                frame_seed,
+                isp: &s.isp,
+            })
+            .collect();
+        let optics = OpticsInput { depth_m: &frame.depth_m, velocity_m_s: self.velocity(pose) };
+        isp::capture_8bit(
+            self.camera,
+            pinhole,
+            &frame.day_nit,
+            &frame.night_nit,
+            Some(optics),
+            self.pattern_seed,
+            rule,
+            &scenarios,
+        )
+    }
+}

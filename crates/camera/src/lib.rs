@@ -1,0 +1,26 @@
+//! The camera that looks at a house: what a candidate is, and how scene radiance becomes the
+//! digital numbers and 8-bit images a robot's software sees.
+//!
+//! ```text
+//! radiance (render) ─► optics ─► radiometry ─► sensor noise ─► DN ─► isp ─► 8-bit image
+//!                      blur,      nit → lux →   (EMVA 1288 or
+//!                      vignetting photons → e-   affine model)
+//! ```
+//!
+//! * [`camera_spec`]: camera candidates (sensor, lens, mounting, exposure) from TOML or the
+//!   inline `SENSOR,key=value` form, resolved against the [`sensor`] catalog.
+//! * [`optics`]: diffraction, defocus and motion blur of the sensor-plane irradiance.
+//! * [`radiometry`]: scene luminance to sensor illuminance, photons, electrons and DN.
+//! * [`sensor`]: the sensor catalog and the noise model (photons to DN), shared with
+//!   calibration and the gap workflow.
+//! * [`isp`]: the fixed 8-bit output rule per scenario, and the fused sensor + ISP row the
+//!   evaluator runs.
+//! * [`capture`]: the one place that chains them: a house, a camera and lighting scenarios in,
+//!   frames out.
+
+pub mod camera_spec;
+pub mod capture;
+pub mod isp;
+pub mod optics;
+pub mod radiometry;
+pub mod sensor;

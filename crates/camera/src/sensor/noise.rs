@@ -1,0 +1,1382 @@
+//! The sensor noise model: photons per pixel in, digital numbers out.
+//!
+//! One module shared by the renderer, the calibration and the gap workflow. Two models:
+//!
+//! * [`SensorModel`]: the physical linear camera model of EMVA 1288 (release 4, section 2),
+//!   driven by catalog parameters, with each departure from it an effect that can be switched
+//!   on and parameterised under the effect names of DESIGN.md. A model is plain serde data, so
+//!   it round-trips through a `model.toml`.
+//! * [`AffineNoise`]: the reference paper's per-channel affine model on 8-bit values,
+//!   `var = g sigma_p^2 I + g^2 sigma_t^2`.
+//!
+//! # The linear model, per pixel
+//!
+//! ```text
+//! mu_e   = QE (1 + prnu) photons                         (prnu: fixed per pixel)
+//! e      = Poisson(mu_e + (dark + hot) t) + dsnu + N(0, sigma_pre^2)
+//! e      = min(e, full_well)                             (saturation)
+//! y      = K g e  (g = 10^(gain_db/20))
+//! y      = y (1 + a (y / y_max)^3)                       (nonlinearity, y_max = 2^bits - 1)
+//! y     += N(0, sigma_post_dn^2) + row(t) + column + periodic + black_level
+//! DN     = clamp(round(y), 0, 2^bits - 1)                (quantization, saturation)
+//! ```
+//!
+//! The temporal variance of a pixel away from clipping is therefore
+//! `K^2 g^2 (mu_e + dark t + sigma_pre^2) + sigma_post_dn^2 + row^2 + 1/12` (EMVA 1288 eq. 9
+//! with the split read noise), which [`SensorModel::expected_temporal_variance_dn2`] returns.
+//!
+//! Optics effects (`illumination_falloff`, `lens_blur`, `motion_blur`) are not handled here:
+//! see [`OPTICS_EFFECTS`].
+//!
+//! Randomness: temporal noise of row `r` comes from `rng::substream(frame_seed,
+//! "sensor/temporal", r)` and fixed patterns from `rng::substream(pattern_seed, "sensor/<map>",
+//! r)`, so output bytes depend only on the seeds, never on the thread count.
+
+use rand::Rng;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use super::catalog::Sensor;
+use scene_gen_core::rng;
+use scene_gen_core::simd::Dispatch;
+
+/// Effects of DESIGN.md's list that belong to the optics, not to this model.
+pub const OPTICS_EFFECTS: [&str; 3] = ["illumination_falloff", "lens_blur", "motion_blur"];
+
+/// Effects this model handles, in DESIGN.md's names.
+pub const SENSOR_EFFECTS: [&str; 11] = [
+    "black_level",
+    "dark_current",
+    "read_noise_split",
+    "quantization",
+    "saturation",
+    "nonlinearity",
+    "dsnu",
+    "prnu",
+    "hot_pixels",
+    "row_column_noise",
+    "periodic_pattern",
+];
+
+/// Default black level as a fraction of the ADC range: a stated convention (1/64, e.g. 64 DN at
+/// 12 bit), not a datasheet figure; real cameras set it by register.
+const BLACK_LEVEL_FRACTION: f64 = 1.0 / 64.0;
+
+/// Linear factor of an analog gain in dB (amplitude dB: 20 log10).
+#[must_use]
+pub fn gain_factor(gain_db: f64) -> f64 {
+    10f64.powf(gain_db / 20.0)
+}
+
+/// Constant offset added to every pixel, DN.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct BlackLevel {
+    pub enabled: bool,
+    pub offset_dn: f64,
+}
+
+/// Thermal dark signal and its shot noise.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct DarkCurrent {
+    pub enabled: bool,
+    pub rate_e_per_s: f64,
+}
+
+/// Read noise partly before the gain stage (scales with gain in DN) and partly after it
+/// (fixed in DN). Off: all of `read_noise_e` is before the gain.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ReadNoiseSplit {
+    pub enabled: bool,
+    /// Fraction of the read-noise variance at 0 dB that arises after the gain stage (0..1).
+    pub post_gain_fraction: f64,
+}
+
+/// Rounding to integer DN (its variance is 1/12 DN^2). Off: [`SensorModel::simulate_dn_with`]
+/// returns continuous values; [`SensorModel::simulate`] must round to fill `u16` anyway.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Quantization {
+    pub enabled: bool,
+}
+
+/// Full-well clipping in electrons and clipping to the ADC range `0..2^bits-1`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Saturation {
+    pub enabled: bool,
+    pub full_well_e: f64,
+}
+
+/// Cubic nonlinearity of the signal above black level: `y' = y (1 + a (y/y_max)^3)`, the form
+/// used by EMVA 1288 reference data set 003 (a < 0 compresses, a > 0 expands; `a` is the
+/// relative deviation at full scale).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Nonlinearity {
+    pub enabled: bool,
+    pub a: f64,
+}
+
+/// Dark signal non-uniformity: a fixed Gaussian offset per pixel, electrons (before the gain).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Dsnu {
+    pub enabled: bool,
+    pub std_e: f64,
+}
+
+/// Photo response non-uniformity: a fixed Gaussian relative sensitivity per pixel.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Prnu {
+    pub enabled: bool,
+    /// Standard deviation of the relative sensitivity (0.01 = 1 %).
+    pub std_fraction: f64,
+}
+
+/// A fixed fraction of pixels with excess dark current, uniform in `0..max_excess_e_per_s`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct HotPixels {
+    pub enabled: bool,
+    pub fraction: f64,
+    pub max_excess_e_per_s: f64,
+}
+
+/// Row noise (a fresh offset per row and frame, temporal) and column fixed-pattern noise (a
+/// fixed offset per column), both DN after the gain stage.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct RowColumnNoise {
+    pub enabled: bool,
+    pub row_std_dn: f64,
+    pub column_std_dn: f64,
+}
+
+/// Fixed sinusoidal offsets, DN: `A sin(2 pi (fx x + wx y)) + A sin(2 pi (wy x + fy y))`, two
+/// plane waves of one amplitude. With `wx = wy = 0` (the default) a column and a row sinusoid;
+/// EMVA 1288 data set 003's DSNU patterns are diagonal waves (its 2-D spectrum peaks at
+/// (0.04, 0.04) and (0.2, 0.2) cycles/px), which the cross terms describe.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct PeriodicPattern {
+    pub enabled: bool,
+    pub amplitude_dn: f64,
+    pub freq_x_cycles_per_px: f64,
+    pub freq_y_cycles_per_px: f64,
+    /// y frequency of the first (x) wave, `wx`.
+    pub wave_x_freq_y_cycles_per_px: f64,
+    /// x frequency of the second (y) wave, `wy`.
+    pub wave_y_freq_x_cycles_per_px: f64,
+}
+
+macro_rules! off_by_default {
+    ($($t:ident { $($f:ident: $v:expr),* }),* $(,)?) => {
+        $(impl Default for $t {
+            fn default() -> Self { $t { enabled: false, $($f: $v),* } }
+        })*
+    };
+}
+
+off_by_default!(
+    BlackLevel { offset_dn: 0.0 },
+    DarkCurrent { rate_e_per_s: 0.0 },
+    ReadNoiseSplit { post_gain_fraction: 0.5 },
+    Quantization {},
+    Saturation { full_well_e: f64::INFINITY },
+    Nonlinearity { a: 0.0 },
+    Dsnu { std_e: 0.0 },
+    Prnu { std_fraction: 0.0 },
+    HotPixels { fraction: 0.0, max_excess_e_per_s: 0.0 },
+    RowColumnNoise { row_std_dn: 0.0, column_std_dn: 0.0 },
+    PeriodicPattern {
+        amplitude_dn: 0.0,
+        freq_x_cycles_per_px: 0.0,
+        freq_y_cycles_per_px: 0.0,
+        wave_x_freq_y_cycles_per_px: 0.0,
+        wave_y_freq_x_cycles_per_px: 0.0
+    },
+);
+
+/// Every effect, by its DESIGN.md name.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Effects {
+    pub black_level: BlackLevel,
+    pub dark_current: DarkCurrent,
+    pub read_noise_split: ReadNoiseSplit,
+    pub quantization: Quantization,
+    pub saturation: Saturation,
+    pub nonlinearity: Nonlinearity,
+    pub dsnu: Dsnu,
+    pub prnu: Prnu,
+    pub hot_pixels: HotPixels,
+    pub row_column_noise: RowColumnNoise,
+    pub periodic_pattern: PeriodicPattern,
+}
+
+impl Effects {
+    /// Names of the effects switched on, in DESIGN.md order.
+    #[must_use]
+    pub fn enabled_names(&self) -> Vec<&'static str> {
+        let on = [
+            self.black_level.enabled,
+            self.dark_current.enabled,
+            self.read_noise_split.enabled,
+            self.quantization.enabled,
+            self.saturation.enabled,
+            self.nonlinearity.enabled,
+            self.dsnu.enabled,
+            self.prnu.enabled,
+            self.hot_pixels.enabled,
+            self.row_column_noise.enabled,
+            self.periodic_pattern.enabled,
+        ];
+        SENSOR_EFFECTS.iter().zip(on).filter(|(_, on)| *on).map(|(n, _)| *n).collect()
+    }
+}
+
+/// A sensor model could not be read or written.
+#[derive(Debug, thiserror::Error)]
+pub enum ModelError {
+    #[error("sensor model, line {line}: {message}")]
+    Parse { line: usize, message: String },
+    #[error("sensor model: {0}")]
+    Invalid(String),
+    #[error("sensor model cannot be written: {0}")]
+    Write(#[from] toml::ser::Error),
+}
+
+/// The EMVA 1288 linear camera model with switchable effects.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SensorModel {
+    /// The sensor this model describes (catalog model name or a measured camera).
+    pub name: String,
+    /// Quantum efficiency (electrons per photon) at the simulated wavelength.
+    pub quantum_efficiency: f64,
+    /// Overall system gain K at 0 dB analog gain, DN per electron.
+    pub system_gain_dn_per_e: f64,
+    /// Temporal read noise at 0 dB, electrons rms (split by `effects.read_noise_split`).
+    pub read_noise_e: f64,
+    pub adc_bits: u32,
+    /// Seed of this sensor instance's fixed patterns (DSNU, PRNU, hot pixels, columns).
+    pub pattern_seed: u64,
+    #[serde(default)]
+    pub effects: Effects,
+}
+
+/// The fixed-pattern maps of one sensor instance at one size (empty when the effect is off).
+#[derive(Debug, Clone, PartialEq)]
+pub struct FixedPattern {
+    pub width: usize,
+    pub height: usize,
+    /// DSNU offset per pixel, electrons.
+    pub dsnu_e: Vec<f32>,
+    /// Relative sensitivity per pixel minus one.
+    pub prnu: Vec<f32>,
+    /// Excess dark current per pixel, electrons per second.
+    pub hot_e_per_s: Vec<f32>,
+    /// Column offset, DN.
+    pub column_dn: Vec<f32>,
+}
+
+impl SensorModel {
+    /// A model of a catalog sensor with the basic effects on (black level, dark current,
+    /// quantization, saturation) and the others off.
+    ///
+    /// K at 0 dB is chosen so that the full well fills the ADC range, `K = (2^bits - 1) /
+    /// full_well`: the usual design point of a camera's base gain (stated convention).
+    #[must_use]
+    pub fn from_sensor(sensor: &Sensor, pattern_seed: u64) -> Self {
+        let max_dn = f64::from((1u32 << sensor.adc_bits) - 1);
+        let effects = Effects {
+            black_level: BlackLevel { enabled: true, offset_dn: (max_dn + 1.0) * BLACK_LEVEL_FRACTION },
+            dark_current: DarkCurrent { enabled: true, rate_e_per_s: sensor.dark_current_e_per_s },
+            quantization: Quantization { enabled: true },
+            saturation: Saturation { enabled: true, full_well_e: sensor.full_well_e },
+            ..Effects::default()
+        };
+        SensorModel {
+            name: sensor.model.clone(),
+            quantum_efficiency: sensor.quantum_efficiency,
+            system_gain_dn_per_e: max_dn / sensor.full_well_e,
+            read_noise_e: sensor.read_noise_e,
+            adc_bits: sensor.adc_bits,
+            pattern_seed,
+            effects,
+        }
+    }
+
+    /// Reads a model from TOML text (the `model.toml` form).
+    pub fn from_toml(text: &str) -> Result<Self, ModelError> {
+        let model: SensorModel = toml::from_str(text).map_err(|e| {
+            let offset = e.span().map_or(0, |s| s.start);
+            let line = text[..offset.min(text.len())].bytes().filter(|&b| b == b'\n').count() + 1;
+            ModelError::Parse { line, message: e.message().to_string() }
+        })?;
+        model.validate()?;
+        Ok(model)
+    }
+
+    /// The `model.toml` text of this model.
+    pub fn to_toml(&self) -> Result<String, ModelError> {
+        Ok(toml::to_string(self)?)
+    }
+
+    /// Checks parameter ranges.
+    pub fn validate(&self) -> Result<(), ModelError> {
+        let bad = |m: String| Err(ModelError::Invalid(m));
+        if !(self.quantum_efficiency >= 0.0 && self.quantum_efficiency <= 1.0) {
+            return bad(format!("quantum_efficiency must be in 0..1, got {}", self.quantum_efficiency));
+        }
+        if !(self.system_gain_dn_per_e.is_finite() && self.system_gain_dn_per_e > 0.0) {
+            return bad(format!("system_gain_dn_per_e must be positive, got {}", self.system_gain_dn_per_e));
+        }
+        if !(self.read_noise_e.is_finite() && self.read_noise_e >= 0.0) {
+            return bad(format!("read_noise_e must be non-negative, got {}", self.read_noise_e));
+        }
+        if !(1..=16).contains(&self.adc_bits) {
+            return bad(format!("adc_bits must be 1..16, got {}", self.adc_bits));
+        }
+        let f = self.effects.read_noise_split.post_gain_fraction;
+        if !(0.0..=1.0).contains(&f) {
+            return bad(format!("read_noise_split.post_gain_fraction must be in 0..1, got {f}"));
+        }
+        let h = self.effects.hot_pixels.fraction;
+        if !(0.0..=1.0).contains(&h) {
+            return bad(format!("hot_pixels.fraction must be in 0..1, got {h}"));
+        }
+        Ok(())
+    }
+
+    /// Largest output value, `2^bits - 1` DN.
+    #[must_use]
+    pub fn max_dn(&self) -> f64 {
+        f64::from((1u32 << self.adc_bits) - 1)
+    }
+
+    /// System gain at `gain_db`, DN per electron.
+    #[must_use]
+    pub fn k_dn_per_e(&self, gain_db: f64) -> f64 {
+        self.system_gain_dn_per_e * gain_factor(gain_db)
+    }
+
+    fn black_dn(&self) -> f64 {
+        let b = self.effects.black_level;
+        if b.enabled { b.offset_dn } else { 0.0 }
+    }
+
+    fn dark_rate(&self) -> f64 {
+        let d = self.effects.dark_current;
+        if d.enabled { d.rate_e_per_s } else { 0.0 }
+    }
+
+    /// (pre-gain read noise variance in e-^2, post-gain read noise variance in DN^2).
+    fn read_variances(&self) -> (f64, f64) {
+        let v = self.read_noise_e * self.read_noise_e;
+        let s = self.effects.read_noise_split;
+        if s.enabled {
+            let k = self.system_gain_dn_per_e;
+            ((1.0 - s.post_gain_fraction) * v, s.post_gain_fraction * v * k * k)
+        } else {
+            (v, 0.0)
+        }
+    }
+
+    fn full_well(&self) -> f64 {
+        let s = self.effects.saturation;
+        if s.enabled { s.full_well_e } else { f64::INFINITY }
+    }
+
+    fn nonlinear(&self, y: f64) -> f64 {
+        let n = self.effects.nonlinearity;
+        if n.enabled {
+            let r = y / self.max_dn();
+            y * (1.0 + n.a * r * r * r)
+        } else {
+            y
+        }
+    }
+
+    /// Mean output of a typical pixel (no fixed-pattern offsets, not hot), DN, for a mean of
+    /// `photons` per pixel. Includes saturation and nonlinearity; the rounding bias is ignored.
+    #[must_use]
+    pub fn expected_mean_dn(&self, photons: f64, exposure_s: f64, gain_db: f64) -> f64 {
+        let e = (self.quantum_efficiency * photons + self.dark_rate() * exposure_s).min(self.full_well());
+        let y = self.nonlinear(self.k_dn_per_e(gain_db) * e) + self.black_dn();
+        if self.effects.saturation.enabled { y.clamp(0.0, self.max_dn()) } else { y }
+    }
+
+    /// Temporal variance of a typical pixel away from clipping, DN^2, for a mean of `photons`
+    /// per pixel: `K^2 g^2 (QE photons + dark t + sigma_pre^2) + sigma_post^2 + row^2 + 1/12`.
+    /// Nonlinearity is ignored (it is a few per cent at full scale at most).
+    #[must_use]
+    pub fn expected_temporal_variance_dn2(&self, photons: f64, exposure_s: f64, gain_db: f64) -> f64 {
+        let k = self.k_dn_per_e(gain_db);
+        let (pre, post) = self.read_variances();
+        let rc = self.effects.row_column_noise;
+        let row = if rc.enabled { rc.row_std_dn * rc.row_std_dn } else { 0.0 };
+        let q = if self.effects.quantization.enabled { 1.0 / 12.0 } else { 0.0 };
+        k * k * (self.quantum_efficiency * photons + self.dark_rate() * exposure_s + pre) + post + row + q
+    }
+
+    /// Builds this instance's fixed patterns for a `width x height` frame.
+    #[must_use]
+    pub fn fixed_pattern(&self, width: usize, height: usize) -> FixedPattern {
+        let e = &self.effects;
+        let seed = self.pattern_seed;
+        let map = |label: &str, f: &(dyn Fn(&mut rand_chacha::ChaCha8Rng) -> f32 + Sync)| -> Vec<f32> {
+            let mut out = vec![0f32; width * height];
+            out.par_chunks_mut(width.max(1)).enumerate().for_each(|(r, row)| {
+                let mut rng = rng::substream(seed, label, r as u64);
+                row.iter_mut().for_each(|v| *v = f(&mut rng));
+            });
+            out
+        };
+        let dsnu_e = if e.dsnu.enabled {
+            let s = e.dsnu.std_e;
+            map("sensor/dsnu", &|r| (s * standard_normal(r)) as f32)
+        } else {
+            Vec::new()
+        };
+        let prnu = if e.prnu.enabled {
+            let s = e.prnu.std_fraction;
+            map("sensor/prnu", &|r| (s * standard_normal(r)).max(-1.0) as f32)
+        } else {
+            Vec::new()
+        };
+        let hot_e_per_s = if e.hot_pixels.enabled {
+            let (p, m) = (e.hot_pixels.fraction, e.hot_pixels.max_excess_e_per_s);
+            map("sensor/hot", &|r| {
+                let hot = r.random::<f64>() < p;
+                let excess = r.random::<f64>() * m;
+                if hot { excess as f32 } else { 0.0 }
+            })
+        } else {
+            Vec::new()
+        };
+        let column_dn = if e.row_column_noise.enabled && e.row_column_noise.column_std_dn > 0.0 {
+            let mut r = rng::stream(seed, "sensor/column");
+            (0..width).map(|_| (e.row_column_noise.column_std_dn * standard_normal(&mut r)) as f32).collect()
+        } else {
+            Vec::new()
+        };
+        FixedPattern { width, height, dsnu_e, prnu, hot_e_per_s, column_dn }
+    }
+
+    /// Simulates one frame: `photons` (mean photons per pixel, row-major `width x height`) to
+    /// DN. Same seeds give the same bytes at any thread count.
+    ///
+    /// # Panics
+    /// If `photons.len() != width * height`.
+    #[must_use]
+    pub fn simulate(
+        &self,
+        photons: &[f32],
+        width: usize,
+        height: usize,
+        exposure_s: f64,
+        gain_db: f64,
+        frame_seed: u64,
+    ) -> Vec<u16> {
+        let pattern = self.fixed_pattern(width, height);
+        self.simulate_with(&pattern, photons, exposure_s, gain_db, frame_seed)
+    }
+
+    /// [`Self::simulate`] with a prebuilt fixed pattern (for many frames of one instance).
+    ///
+    /// # Panics
+    /// If `photons.len()` differs from the pattern's size.
+    #[must_use]
+    pub fn simulate_with(
+        &self,
+        pattern: &FixedPattern,
+        photons: &[f32],
+        exposure_s: f64,
+        gain_db: f64,
+        frame_seed: u64,
+    ) -> Vec<u16> {
+        let sim = self.frame_simulator(pattern, exposure_s, gain_db, frame_seed);
+        sim.frame(Dispatch::current(), photons, |y| sim.to_u16(y))
+    }
+
+    /// The frame before the final conversion to `u16`: rounded and clipped only when the
+    /// `quantization` and `saturation` effects are on.
+    ///
+    /// # Panics
+    /// If `photons.len()` differs from the pattern's size.
+    #[must_use]
+    pub fn simulate_dn_with(
+        &self,
+        pattern: &FixedPattern,
+        photons: &[f32],
+        exposure_s: f64,
+        gain_db: f64,
+        frame_seed: u64,
+    ) -> Vec<f64> {
+        self.frame_simulator(pattern, exposure_s, gain_db, frame_seed).frame(Dispatch::current(), photons, |y| y)
+    }
+
+    /// The per-frame constants of one simulated frame, so that callers can simulate it row by
+    /// row, fused with their own per-row work (e.g. the evaluator's photon conversion before and
+    /// its 8-bit output after; [`crate::isp::capture_8bit`]).
+    #[must_use]
+    pub fn frame_simulator<'a>(
+        &'a self,
+        pattern: &'a FixedPattern,
+        exposure_s: f64,
+        gain_db: f64,
+        frame_seed: u64,
+    ) -> FrameSimulator<'a> {
+        let (width, height) = (pattern.width, pattern.height);
+        let e = &self.effects;
+        let (pre_var, post_var) = self.read_variances();
+        let pp = e.periodic_pattern;
+        let two_pi = std::f64::consts::TAU;
+        // The waves from per-column and per-row tables, `sin(a + b) = sin a cos b + cos a sin b`
+        // (w + h sin_cos calls per frame instead of two sines per pixel; the same tables for
+        // every row window, so a row's bytes do not depend on how many rows are simulated).
+        let col_waves: Vec<[(f64, f64); 2]> = if pp.enabled {
+            (0..width)
+                .map(|c| {
+                    let cf = c as f64;
+                    [
+                        (two_pi * pp.freq_x_cycles_per_px * cf).sin_cos(),
+                        (two_pi * pp.wave_y_freq_x_cycles_per_px * cf).sin_cos(),
+                    ]
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
+        FrameSimulator {
+            model: self,
+            pattern,
+            width,
+            height,
+            exposure_s,
+            frame_seed,
+            k: self.k_dn_per_e(gain_db),
+            pre_sd: pre_var.sqrt(),
+            post_sd: post_var.sqrt(),
+            dark_mean: self.dark_rate() * exposure_s,
+            full_well: self.full_well(),
+            black: self.black_dn(),
+            max: self.max_dn(),
+            row_sd: if e.row_column_noise.enabled { e.row_column_noise.row_std_dn } else { 0.0 },
+            separable: pp.wave_x_freq_y_cycles_per_px == 0.0 && pp.wave_y_freq_x_cycles_per_px == 0.0,
+            col_waves,
+        }
+    }
+}
+
+/// One frame of a [`SensorModel`] with its fixed pattern, exposure, gain and frame seed: the
+/// per-frame constants computed once, and [`FrameSimulator::row`] to simulate any row on its
+/// own. Row `r`'s draws come from `rng::substream(frame_seed, "sensor/temporal", r)` whichever
+/// rows are simulated and in whatever order, so output bytes never depend on the thread count.
+#[derive(Debug, Clone)]
+pub struct FrameSimulator<'a> {
+    model: &'a SensorModel,
+    pattern: &'a FixedPattern,
+    /// Frame size, pixels (the pattern's).
+    pub width: usize,
+    pub height: usize,
+    exposure_s: f64,
+    frame_seed: u64,
+    /// System gain at the frame's analog gain, DN per electron.
+    k: f64,
+    pre_sd: f64,
+    post_sd: f64,
+    dark_mean: f64,
+    full_well: f64,
+    black: f64,
+    max: f64,
+    row_sd: f64,
+    separable: bool,
+    col_waves: Vec<[(f64, f64); 2]>,
+}
+
+impl FrameSimulator<'_> {
+    /// Every row of the frame of `photons`, rows in parallel, each value through `convert`; the
+    /// rows run in the build `dispatch` of [`FrameSimulator::row`] ([`scene_gen_core::simd`], the same
+    /// values either way).
+    ///
+    /// # Panics
+    /// If `photons.len()` differs from the frame's size.
+    fn frame<T: Copy + Default + Send>(
+        &self,
+        dispatch: Dispatch,
+        photons: &[f32],
+        convert: impl Fn(f64) -> T + Sync,
+    ) -> Vec<T> {
+        assert_eq!(photons.len(), self.width * self.height, "photon image size must be width x height");
+        let mut out = vec![T::default(); photons.len()];
+        let dispatch = dispatch.supported();
+        out.par_chunks_mut(self.width.max(1)).zip(photons.par_chunks(self.width.max(1))).enumerate().for_each(
+            |(r, (row_out, row_photons))| {
+                let emit = |c: usize, y: f64| row_out[c] = convert(y);
+                match dispatch {
+                    // SAFETY: `supported()` gives `Avx2Fma` only when this CPU has AVX2 and FMA.
+                    #[cfg(target_arch = "x86_64")]
+                    Dispatch::Avx2Fma => unsafe { self.row_avx2(r, row_photons, emit) },
+                    _ => self.row(r, row_photons, emit),
+                }
+            },
+        );
+        out
+    }
+
+    /// [`FrameSimulator::row`] compiled with AVX2 and FMA enabled (the noise draws and the
+    /// per-pixel arithmetic get AVX2 code; the values are the same).
+    ///
+    /// # Safety
+    /// The CPU must support AVX2 and FMA: call it only when [`Dispatch::supported`] returned
+    /// [`Dispatch::Avx2Fma`].
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn row_avx2(&self, r: usize, photons: &[f32], emit: impl FnMut(usize, f64)) {
+        self.row(r, photons, emit);
+    }
+
+    /// Simulates row `r` from its mean photons per pixel (`photons.len()` = width), handing
+    /// each pixel's value (before the final conversion, as [`SensorModel::simulate_dn_with`]) to
+    /// `emit(column, value)` in column order.
+    ///
+    /// Always inlined, so that every caller compiles its own copy for its own CPU features (the
+    /// AVX2 clones of [`scene_gen_core::simd`] among them).
+    ///
+    /// # Panics
+    /// If `photons` is not one row long or `r` is outside the frame.
+    #[inline(always)]
+    pub fn row(&self, r: usize, photons: &[f32], mut emit: impl FnMut(usize, f64)) {
+        let width = self.width;
+        assert!(photons.len() == width && r < self.height, "row {r} of {} px must be in the frame", photons.len());
+        let e = &self.model.effects;
+        let p = self.pattern;
+        let span = r * width..(r + 1) * width;
+        // Row slices of the maps that are on (an effect that is off has an empty map).
+        let prnu = p.prnu.get(span.clone());
+        let hot = p.hot_e_per_s.get(span.clone());
+        let dsnu = p.dsnu_e.get(span);
+        let column = (p.column_dn.len() == width).then_some(p.column_dn.as_slice());
+        let qe = self.model.quantum_efficiency;
+        let nl = e.nonlinearity;
+        let pp = e.periodic_pattern;
+        let (pre_sd, post_sd, k, full_well) = (self.pre_sd, self.post_sd, self.k, self.full_well);
+        let (quantize, saturate, max) = (e.quantization.enabled, e.saturation.enabled, self.max);
+        let (exposure_s, dark_mean, black) = (self.exposure_s, self.dark_mean, self.black);
+
+        let mut rng = rng::substream(self.frame_seed, "sensor/temporal", r as u64);
+        let row_offset = if self.row_sd > 0.0 { self.row_sd * standard_normal(&mut rng) } else { 0.0 };
+        let two_pi = std::f64::consts::TAU;
+        let rf = r as f64;
+        let row_waves = [
+            (two_pi * pp.wave_x_freq_y_cycles_per_px * rf).sin_cos(),
+            (two_pi * pp.freq_y_cycles_per_px * rf).sin_cos(),
+        ];
+        let periodic_y = if pp.enabled { pp.amplitude_dn * row_waves[1].0 } else { 0.0 };
+        // The row in blocks of `ROW_BLOCK` pixels, three passes each: the arithmetic that needs
+        // no random draw before (the mean electrons and PTRS's constants) and after (DN, the
+        // effects, rounding) runs in loops without draws, which the compiler vectorises and the
+        // CPU overlaps; only the draws themselves stay in a serial loop, in the stream's order.
+        // Every value is computed by the same operations in the same order as one loop would.
+
+        let mut mean_e = [0f64; ROW_BLOCK];
+        let mut ptrs = [Ptrs::default(); ROW_BLOCK];
+        let mut drawn_e = [0f64; ROW_BLOCK];
+        let mut pre_z = [0f64; ROW_BLOCK];
+        let mut post_z = [0f64; ROW_BLOCK];
+        for (b, ph) in photons.chunks(ROW_BLOCK).enumerate() {
+            let (c0, n) = (b * ROW_BLOCK, ph.len());
+            let cols = c0..c0 + n;
+            let prnu = prnu.map(|m| &m[cols.clone()]);
+            let hot = hot.map(|m| &m[cols.clone()]);
+            let dsnu = dsnu.map(|m| &m[cols.clone()]);
+            let column = column.map(|m| &m[cols]);
+            let (mean_e, ptrs) = (&mut mean_e[..n], &mut ptrs[..n]);
+            let (drawn_e, pre_z, post_z) = (&mut drawn_e[..n], &mut pre_z[..n], &mut post_z[..n]);
+            // 1. Mean electrons, signal plus dark (hot pixels add to the dark mean), and PTRS's
+            // constants (used only where the mean is >= 10).
+            match prnu {
+                Some(m) => {
+                    for ((mu, &ph), &s) in mean_e.iter_mut().zip(ph).zip(m) {
+                        *mu = qe * (1.0 + f64::from(s)) * f64::from(ph).max(0.0) + dark_mean;
+                    }
+                }
+                None => {
+                    for (mu, &ph) in mean_e.iter_mut().zip(ph) {
+                        // `qe * 1.0` is `qe`: the value of `qe * sens * ph` with `sens = 1`.
+                        *mu = qe * f64::from(ph).max(0.0) + dark_mean;
+                    }
+                }
+            }
+            if let Some(m) = hot {
+                for (mu, &h) in mean_e.iter_mut().zip(m) {
+                    *mu += f64::from(h) * exposure_s;
+                }
+            }
+            for (t, &mu) in ptrs.iter_mut().zip(mean_e.iter()) {
+                *t = Ptrs::new(mu);
+            }
+            // 2. The draws, in the order of the stream.
+            for i in 0..n {
+                drawn_e[i] = poisson_with(&mut rng, mean_e[i], &ptrs[i]);
+                if pre_sd > 0.0 {
+                    pre_z[i] = standard_normal(&mut rng);
+                }
+                if post_sd > 0.0 {
+                    post_z[i] = standard_normal(&mut rng);
+                }
+            }
+            // 3. DN and the effects after the draws.
+            for i in 0..n {
+                let mut electrons = drawn_e[i];
+                electrons += dsnu.map_or(0.0, |m| f64::from(m[i]));
+                if pre_sd > 0.0 {
+                    electrons += pre_sd * pre_z[i];
+                }
+                electrons = electrons.min(full_well);
+                let mut y = k * electrons;
+                if nl.enabled {
+                    let q = y / max;
+                    y *= 1.0 + nl.a * q * q * q;
+                }
+                if post_sd > 0.0 {
+                    y += post_sd * post_z[i];
+                }
+                y += row_offset + black;
+                y += column.map_or(0.0, |m| f64::from(m[i]));
+                if pp.enabled {
+                    let [(sx, cx), (sy, cy)] = self.col_waves[c0 + i];
+                    if self.separable {
+                        y += periodic_y + pp.amplitude_dn * sx;
+                    } else {
+                        let [(sxr, cxr), (syr, cyr)] = row_waves;
+                        y += pp.amplitude_dn * ((sx * cxr + cx * sxr) + (sy * cyr + cy * syr));
+                    }
+                }
+                if quantize {
+                    y = round_exact(y);
+                }
+                if saturate {
+                    y = y.clamp(0.0, max);
+                }
+                emit(c0 + i, y);
+            }
+        }
+    }
+
+    /// The final conversion of one value of [`FrameSimulator::row`] to the `u16` of
+    /// [`SensorModel::simulate_with`]: rounded (when quantization is off) and clipped to the ADC
+    /// range.
+    #[inline]
+    #[must_use]
+    pub fn to_u16(&self, y: f64) -> u16 {
+        // Already whole numbers when quantization is on: no second rounding.
+        let y = if self.model.effects.quantization.enabled { y } else { round_exact(y) };
+        y.clamp(0.0, self.max) as u16
+    }
+}
+
+/// Layers of the ziggurat of [`standard_normal`].
+const ZIG_LAYERS: usize = 256;
+/// Right edge of the base layer and area of every layer of a 256-layer ziggurat for the
+/// unnormalised density `exp(-x^2 / 2)`: G. Marsaglia and W. W. Tsang, "The ziggurat method for
+/// generating random variables", Journal of Statistical Software 5(8), 2000 (section 4's
+/// 256-box constants `r = 3.6541528853610088`, `v = 0.00492867323399`).
+const ZIG_R: f64 = 3.654_152_885_361_009;
+const ZIG_V: f64 = 0.004_928_673_233_99;
+
+/// The ziggurat's layer edges `x[i]` (`x[0]` the base layer's pseudo-width `v / f(r)`, `x[1] = r`,
+/// decreasing to `x[256] = 0`) and densities `f[i] = exp(-x[i]^2 / 2)`, built once.
+struct Ziggurat {
+    x: [f64; ZIG_LAYERS + 1],
+    f: [f64; ZIG_LAYERS + 1],
+}
+
+#[inline]
+fn ziggurat() -> &'static Ziggurat {
+    static TABLE: std::sync::OnceLock<Ziggurat> = std::sync::OnceLock::new();
+    TABLE.get_or_init(|| {
+        let pdf = |x: f64| (-0.5 * x * x).exp();
+        let mut x = [0f64; ZIG_LAYERS + 1];
+        x[0] = ZIG_V / pdf(ZIG_R);
+        x[1] = ZIG_R;
+        for i in 1..ZIG_LAYERS - 1 {
+            // Each layer has area v: x[i] (f(x[i+1]) - f(x[i])) = v.
+            x[i + 1] = (-2.0 * (ZIG_V / x[i] + pdf(x[i])).ln()).sqrt();
+        }
+        x[ZIG_LAYERS] = 0.0;
+        let mut f = [0f64; ZIG_LAYERS + 1];
+        for (fi, xi) in f.iter_mut().zip(&x) {
+            *fi = pdf(*xi);
+        }
+        Ziggurat { x, f }
+    })
+}
+
+/// A standard normal draw by the ziggurat method (Marsaglia and Tsang 2000, see `ZIG_R`):
+/// exact in distribution; about 99 % of draws cost one 64-bit word, a table look-up and a
+/// compare (no logarithm, no trigonometry). The noise model's draws use it; [`normal`] stays the
+/// Box-Muller sampler for the callers that rely on its stream.
+#[inline(always)]
+pub fn standard_normal<R: Rng + ?Sized>(rng: &mut R) -> f64 {
+    let z = ziggurat();
+    loop {
+        let bits: u64 = rng.random();
+        let i = (bits & 0xff) as usize;
+        // 53 high bits: a uniform in (-1, 1) (the centre of each of 2^53 cells, never 0 or +-1).
+        let u = 2.0 * (((bits >> 11) as f64 + 0.5) * (1.0 / (1u64 << 53) as f64)) - 1.0;
+        let x = u * z.x[i];
+        if x.abs() < z.x[i + 1] {
+            return x;
+        }
+        if i == 0 {
+            // The tail beyond r (Marsaglia 1964): x = -ln(u1) / r, y = -ln(u2), accept 2y > x^2.
+            loop {
+                let a = -(1.0 - rng.random::<f64>()).ln() / ZIG_R;
+                let b = -(1.0 - rng.random::<f64>()).ln();
+                if 2.0 * b > a * a {
+                    return if u < 0.0 { -(ZIG_R + a) } else { ZIG_R + a };
+                }
+            }
+        }
+        // The wedge between layers i and i + 1.
+        let y = z.f[i] + (z.f[i + 1] - z.f[i]) * rng.random::<f64>();
+        if y < (-0.5 * x * x).exp() {
+            return x;
+        }
+    }
+}
+
+/// A standard normal draw (Box-Muller, one output per two uniforms: simple and reproducible;
+/// the detection code and tests draw their synthetic noise with it).
+pub fn normal<R: Rng + ?Sized>(rng: &mut R) -> f64 {
+    let u1 = 1.0 - rng.random::<f64>(); // (0, 1]
+    let u2 = rng.random::<f64>();
+    (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+}
+
+/// Pixels per block of [`FrameSimulator::row`]'s passes (its scratch arrays live on the stack).
+const ROW_BLOCK: usize = 64;
+
+/// Means below this are drawn by inversion, the others by PTRS ([`poisson`]).
+const POISSON_INVERSION_MAX: f64 = 10.0;
+
+/// [`poisson_inversion`] stops here: the mass above is below 1e-24 for means under 10, and
+/// the cumulative sum, rounded, may stop short of a uniform just below 1.
+const POISSON_INVERSION_MAX_K: f64 = 60.0;
+
+/// A Poisson draw with mean `lambda` (0 for lambda <= 0).
+///
+/// Small means: inversion of the distribution function with one uniform (L. Devroye,
+/// "Non-Uniform Random Variate Generation", Springer 1986, X.3.2). Means of 10 and above: the
+/// transformed rejection method PTRS of W. Hoermann, "The transformed rejection method for
+/// generating Poisson random variables", Insurance: Mathematics and Economics 12 (1993).
+#[inline(always)]
+pub fn poisson<R: Rng + ?Sized>(rng: &mut R, lambda: f64) -> f64 {
+    poisson_with(rng, lambda, &Ptrs::new(lambda))
+}
+
+/// [`poisson`] with PTRS's constants computed beforehand (`ptrs = Ptrs::new(lambda)`; not read
+/// when `lambda` is below 10), so that a caller can compute them for many means in a loop
+/// without draws: the same draws and values as [`poisson`].
+#[inline(always)]
+fn poisson_with<R: Rng + ?Sized>(rng: &mut R, lambda: f64, ptrs: &Ptrs) -> f64 {
+    if lambda.is_nan() || lambda <= 0.0 {
+        return 0.0;
+    }
+    if lambda < POISSON_INVERSION_MAX {
+        return poisson_inversion(rng, lambda);
+    }
+    ptrs_draw(rng, lambda, ptrs)
+}
+
+/// The constants of PTRS (Hoermann 1993, see [`poisson`]) for one mean: `a`, `b`, the squeeze
+/// limit `vr`, and `2 a`. They depend on the mean alone, not on the draws.
+#[derive(Debug, Clone, Copy, Default)]
+struct Ptrs {
+    two_a: f64,
+    a: f64,
+    b: f64,
+    vr: f64,
+}
+
+impl Ptrs {
+    #[inline(always)]
+    fn new(lambda: f64) -> Ptrs {
+        let slam = lambda.sqrt();
+        let b = 0.931 + 2.53 * slam;
+        let a = -0.059 + 0.02483 * b;
+        let vr = 0.9277 - 3.6224 / (b - 2.0);
+        // Exact (a doubling), so `two_a / us` is bit for bit Hoermann's `2 a / us`.
+        Ptrs { two_a: 2.0 * a, a, b, vr }
+    }
+}
+
+/// 2^-32: the grid of PTRS's uniforms `u` and `v`, which [`ptrs_draw`] takes from the two
+/// halves of one 64-bit word (53-bit floats took a word each).
+///
+/// PTRS returns `k` for the points `(u, v)` under its acceptance curve in the strip of `u` that
+/// maps to `k`. On the grid a strip holds a column more or less, and each column's accepted
+/// height is rounded to half a cell. Bounded strip by strip for means from 10 to 10^5 (edges by
+/// bisection, every `k` within 12 sd): within 4 sd of the mean P(k) moves by a relative 2e-7 at
+/// mean 10, 2e-6 at 10^3 and 2e-5 at 10^5, and a chi-square test on any one count would need at
+/// least 3e13 draws (ten million 1936 x 1216 frames) to see the change.
+const PTRS_HALF_WORD: f64 = 1.0 / 4_294_967_296.0;
+
+/// PTRS's rejection loop for `lambda >= 10` with its constants `ptrs`.
+#[inline(always)]
+fn ptrs_draw<R: Rng + ?Sized>(rng: &mut R, lambda: f64, ptrs: &Ptrs) -> f64 {
+    let Ptrs { two_a, a, b, vr } = *ptrs;
+    loop {
+        // Hoermann's two uniforms from one 64-bit word, 32 bits each, at the centres of the
+        // cells of a 2^-32 grid: u in (-0.5, 0.5), symmetric, and v in (0, 1) (exact: products
+        // of a 32-bit integer and a power of two, sums on a 2^-33 grid). See `PTRS_HALF_WORD`.
+        let bits = rng.next_u64();
+        let u = (bits >> 32) as f64 * PTRS_HALF_WORD + (0.5 * PTRS_HALF_WORD - 0.5);
+        let v = (bits & 0xffff_ffff) as f64 * PTRS_HALF_WORD + 0.5 * PTRS_HALF_WORD;
+        let us = 0.5 - u.abs();
+        let k = floor_exact((two_a / us + b) * u + lambda + 0.43);
+        if us >= 0.07 && v <= vr {
+            return k;
+        }
+        if k < 0.0 || (us < 0.013 && v > us) {
+            continue;
+        }
+        if ptrs_accepts(lambda, k, us, v, a, b) {
+            return k;
+        }
+    }
+}
+
+/// PTRS's exact acceptance test, for the draws its squeeze leaves (three in five at a mean of
+/// 10, three in ten at 100, one in five at 10^4): Hoermann's `ln v + ln(1/alpha) - ln(a/us^2 +
+/// b) <= -lambda + k ln lambda - ln k!`, the left side as one logarithm.
+///
+/// Not inlined on purpose: inlined into [`ptrs_draw`], the compiler hoisted `lambda.ln()` and
+/// `1/alpha` (invariant in the rejection loop) above the loop, so that every draw paid for a
+/// logarithm and a division that the squeeze makes unnecessary for most of them.
+#[inline(never)]
+fn ptrs_accepts(lambda: f64, k: f64, us: f64, v: f64, a: f64, b: f64) -> bool {
+    let inv_alpha = 1.1239 + 1.1328 / (b - 3.4);
+    (v * inv_alpha / (a / (us * us) + b)).ln() <= -lambda + k * lambda.ln() - ln_factorial(k)
+}
+
+/// A Poisson draw for a small mean (below 10) by sequential inversion: the smallest `k` whose
+/// cumulative probability `P(X <= k)` reaches one uniform, the masses from `p_0 = exp(-lambda)`
+/// by `p_k = p_(k-1) lambda / k`. One uniform per draw, where multiplying uniforms until their
+/// product drops below `exp(-lambda)` (Knuth) takes `k + 1`.
+#[inline(always)]
+fn poisson_inversion<R: Rng + ?Sized>(rng: &mut R, lambda: f64) -> f64 {
+    let u = rng.random::<f64>();
+    let mut p = (-lambda).exp();
+    let mut cdf = p;
+    let mut k = 0.0;
+    while u > cdf && k < POISSON_INVERSION_MAX_K {
+        k += 1.0;
+        p *= lambda / k;
+        cdf += p;
+    }
+    k
+}
+
+/// Below this, ln(k!) is the exact sum of logarithms, above Stirling's series.
+const LN_FACTORIAL_EXACT: u32 = 20;
+/// ln(k!) is looked up below this (2^14: 128 KiB, every count of a night image and most of a
+/// day image; PTRS's exact test needs it for a fifth to three fifths of its draws).
+const LN_FACTORIAL_TABLE: usize = 1 << 14;
+
+/// ln(k!) for a non-negative integer k: exact sum below 20, Stirling's series above. Values
+/// below [`LN_FACTORIAL_TABLE`] come from a table built once by the same two formulas, so they
+/// are bit for bit those of computing at each call.
+#[inline]
+fn ln_factorial(k: f64) -> f64 {
+    static TABLE: std::sync::OnceLock<Vec<f64>> = std::sync::OnceLock::new();
+    if k < LN_FACTORIAL_TABLE as f64 {
+        let table =
+            TABLE.get_or_init(|| (0..LN_FACTORIAL_TABLE as u32).map(|k| ln_factorial_direct(f64::from(k))).collect());
+        table[k as usize]
+    } else {
+        ln_factorial_direct(k)
+    }
+}
+
+/// [`ln_factorial`] computed: the sum of ln 2 .. ln k below 20, Stirling's series above.
+fn ln_factorial_direct(k: f64) -> f64 {
+    if k < f64::from(LN_FACTORIAL_EXACT) {
+        (2..=k as u32).map(|i| f64::from(i).ln()).sum()
+    } else {
+        let x = k + 1.0;
+        (x - 0.5) * x.ln() - x + 0.5 * std::f64::consts::TAU.ln() + 1.0 / (12.0 * x) - 1.0 / (360.0 * x * x * x)
+    }
+}
+
+/// 2^52: every f64 of at least this magnitude is a whole number.
+const TWO_POW_52: f64 = 4_503_599_627_370_496.0;
+
+/// [`f64::round`] (half away from zero), bit for bit, without a library call: on the baseline
+/// x86-64 target (no SSE4.1 `roundsd`) `f64::round` is a call into a generic software routine,
+/// which cost about a tenth of the sensor stage. `y - trunc(y)` is exact, so the comparison
+/// with 0.5 is too (0.49999999999999994 stays 0, which `(y + 0.5).floor()` would get wrong).
+#[inline]
+#[must_use]
+pub fn round_exact(y: f64) -> f64 {
+    // False for NaN and infinities, which are returned as they are, like whole numbers.
+    if y.abs() < TWO_POW_52 {
+        let t = y as i64 as f64;
+        let f = y - t;
+        // Without branches: the fraction of a noisy value is as likely above 0.5 as below, so a
+        // branch would be mispredicted for half the pixels.
+        let r = t + f64::from(u8::from(f >= 0.5)) - f64::from(u8::from(f <= -0.5));
+        // The sign of zero as `round` gives it (round(-0.3) = -0.0).
+        r.copysign(y)
+    } else {
+        y
+    }
+}
+
+/// [`f64::floor`], bit for bit, without a library call (see [`round_exact`]).
+#[inline]
+#[must_use]
+pub fn floor_exact(x: f64) -> f64 {
+    if x.abs() < TWO_POW_52 {
+        let t = x as i64 as f64;
+        (if t > x { t - 1.0 } else { t }).copysign(x)
+    } else {
+        x
+    }
+}
+
+/// The reference paper's affine noise model on 8-bit values, per colour channel:
+/// `var(I) = g sigma_p2 I + g^2 sigma_t2`, with `g = 10^((G - G0)/20) * (A_ref / A)` (linear
+/// gain ratio times the pixel-area ratio, tacos_facts.md).
+///
+/// `sigma_p2` and `sigma_t2` are variance coefficients: the released code (AddNoise.py) adds
+/// noise of variance `sigma_p I + sigma_t` although it calls them sigma, so the released numbers
+/// are stored here as they are, as variances. Channels are stored R, G, B (the release lists B,
+/// G, R).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct AffineNoise {
+    /// Signal-dependent variance coefficient per channel (R, G, B), DN (8-bit) per DN.
+    pub sigma_p2: [f64; 3],
+    /// Signal-independent variance per channel (R, G, B), DN^2 (8-bit).
+    pub sigma_t2: [f64; 3],
+    /// Gain at which the coefficients were calibrated, dB.
+    pub g0_db: f64,
+    /// Pixel area of the calibrated camera, um^2.
+    pub ref_pixel_area_um2: f64,
+}
+
+impl Default for AffineNoise {
+    fn default() -> Self {
+        Self::flir_imx172()
+    }
+}
+
+impl AffineNoise {
+    /// The released FLIR Flea3 (IMX172) coefficients at G0 = 15 dB, reference pixel area 2.4
+    /// um^2 (1.55 um pitch). Source: TaCOS AddNoise.py as summarised in tacos_facts.md
+    /// (B, G, R: sigma_p = 0.24, 0.12, 0.29; sigma_t = 1.82, 0.91, 3.2).
+    #[must_use]
+    pub fn flir_imx172() -> Self {
+        AffineNoise { sigma_p2: [0.29, 0.12, 0.24], sigma_t2: [3.2, 0.91, 1.82], g0_db: 15.0, ref_pixel_area_um2: 2.4 }
+    }
+
+    /// The affine coefficients of a camera measured with EMVA 1288 at its own gain and bit
+    /// depth (DESIGN.md): `sigma_p^2 = K`, `sigma_t^2 = K^2 sigma_d^2 + 1/12`, same for every
+    /// channel; values are in the measured camera's DN, not 8-bit.
+    #[must_use]
+    pub fn from_emva(k_dn_per_e: f64, dark_noise_e: f64, gain_db: f64, pixel_area_um2: f64) -> Self {
+        let t = k_dn_per_e * k_dn_per_e * dark_noise_e * dark_noise_e + 1.0 / 12.0;
+        AffineNoise { sigma_p2: [k_dn_per_e; 3], sigma_t2: [t; 3], g0_db: gain_db, ref_pixel_area_um2: pixel_area_um2 }
+    }
+
+    /// `g` of the paper: linear gain ratio times the reference-to-candidate pixel-area ratio.
+    #[must_use]
+    pub fn g(&self, gain_db: f64, pixel_area_um2: f64) -> f64 {
+        gain_factor(gain_db - self.g0_db) * self.ref_pixel_area_um2 / pixel_area_um2
+    }
+
+    /// Noise variance of an 8-bit value `value` in `channel` (0 R, 1 G, 2 B) at factor `g`.
+    #[must_use]
+    pub fn variance(&self, value: f64, channel: usize, g: f64) -> f64 {
+        g * self.sigma_p2[channel] * value + g * g * self.sigma_t2[channel]
+    }
+
+    /// Adds the model's noise to an interleaved RGB 8-bit image (`width` pixels per row),
+    /// rounding and clipping to 0..255. Row `r` draws from `substream(frame_seed,
+    /// "sensor/affine", r)`.
+    #[must_use]
+    pub fn apply_rgb8(&self, rgb: &[u8], width: usize, gain_db: f64, pixel_area_um2: f64, frame_seed: u64) -> Vec<u8> {
+        let g = self.g(gain_db, pixel_area_um2);
+        let mut out = rgb.to_vec();
+        out.par_chunks_mut((width * 3).max(3)).enumerate().for_each(|(r, row)| {
+            let mut rng = rng::substream(frame_seed, "sensor/affine", r as u64);
+            for (i, v) in row.iter_mut().enumerate() {
+                let x = f64::from(*v);
+                let sd = self.variance(x, i % 3, g).max(0.0).sqrt();
+                *v = round_exact(x + sd * standard_normal(&mut rng)).clamp(0.0, 255.0) as u8;
+            }
+        });
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn poisson_mean_and_variance_match_lambda() {
+        for &lambda in &[0.5, 4.0, 12.0, 250.0, 40_000.0] {
+            let mut rng = rng::stream(1, "test");
+            let n = 40_000;
+            let draws: Vec<f64> = (0..n).map(|_| poisson(&mut rng, lambda)).collect();
+            let mean = draws.iter().sum::<f64>() / n as f64;
+            let var = draws.iter().map(|d| (d - mean) * (d - mean)).sum::<f64>() / (n - 1) as f64;
+            assert!((mean - lambda).abs() < 5.0 * (lambda / n as f64).sqrt() + 1e-9, "lambda {lambda}: mean {mean}");
+            assert!((var / lambda - 1.0).abs() < 0.04, "lambda {lambda}: var {var}");
+        }
+    }
+
+    #[test]
+    fn poisson_matches_its_probability_mass() {
+        // Inversion (lambda < 10), PTRS (lambda >= 10) and the switch: Pearson chi-square of the
+        // counts of every k within 4 sd (the two tails pooled) against the exact mass
+        // exp(k ln l - l - ln k!).
+        for &lambda in &[0.3f64, 2.5, 7.7, 9.99, 10.0, 37.5, 900.0, 40_000.0] {
+            let mut rng = rng::stream(4, "test");
+            let n = 200_000;
+            let sd: f64 = lambda.sqrt();
+            let (lo, hi) = ((lambda - 4.0 * sd).floor().max(0.0) as usize, (lambda + 4.0 * sd).ceil() as usize);
+            let mut counts = vec![0usize; hi - lo + 3];
+            for _ in 0..n {
+                let k = poisson(&mut rng, lambda) as usize;
+                counts[if k < lo {
+                    0
+                } else if k > hi {
+                    hi - lo + 2
+                } else {
+                    k - lo + 1
+                }] += 1;
+            }
+            let pmf = |k: usize| (k as f64 * lambda.ln() - lambda - ln_factorial(k as f64)).exp();
+            let inner: Vec<f64> = (lo..=hi).map(pmf).collect();
+            let below: f64 = (0..lo).map(pmf).sum();
+            let above = 1.0 - below - inner.iter().sum::<f64>();
+            let mut chi2 = 0.0;
+            let mut bins = 0;
+            for (i, &c) in counts.iter().enumerate() {
+                let p = if i == 0 {
+                    below
+                } else if i == counts.len() - 1 {
+                    above
+                } else {
+                    inner[i - 1]
+                };
+                let e = n as f64 * p;
+                if e < 5.0 {
+                    continue;
+                }
+                chi2 += (c as f64 - e).powi(2) / e;
+                bins += 1;
+            }
+            // Mean bins - 1, sd sqrt(2 (bins - 1)): 5 sd of slack.
+            let dof = f64::from(bins - 1);
+            assert!(chi2 < dof + 5.0 * (2.0 * dof).sqrt(), "lambda {lambda}: chi-square {chi2} over {bins} bins");
+        }
+    }
+
+    #[test]
+    fn normal_has_unit_variance() {
+        let mut rng = rng::stream(2, "test");
+        let n = 100_000;
+        let d: Vec<f64> = (0..n).map(|_| normal(&mut rng)).collect();
+        let mean = d.iter().sum::<f64>() / n as f64;
+        let var = d.iter().map(|x| x * x).sum::<f64>() / n as f64;
+        assert!(mean.abs() < 0.02 && (var - 1.0).abs() < 0.02, "mean {mean} var {var}");
+    }
+
+    #[test]
+    fn ziggurat_layers_close_at_the_top() {
+        let z = ziggurat();
+        // The last layer's area v must reach the density's peak: f(x255) + v / x255 = 1.
+        let top = z.f[ZIG_LAYERS - 1] + ZIG_V / z.x[ZIG_LAYERS - 1];
+        assert!((top - 1.0).abs() < 1e-9, "top {top}");
+        assert!(z.x.windows(2).skip(1).all(|p| p[0] > p[1]), "edges must decrease");
+    }
+
+    #[test]
+    fn standard_normal_matches_the_distribution() {
+        let mut rng = rng::stream(3, "test");
+        let n = 400_000;
+        let d: Vec<f64> = (0..n).map(|_| standard_normal(&mut rng)).collect();
+        let nf = n as f64;
+        let mean = d.iter().sum::<f64>() / nf;
+        let var = d.iter().map(|x| x * x).sum::<f64>() / nf;
+        let kurt = d.iter().map(|x| x.powi(4)).sum::<f64>() / nf;
+        assert!(mean.abs() < 0.01 && (var - 1.0).abs() < 0.01 && (kurt - 3.0).abs() < 0.06, "{mean} {var} {kurt}");
+        // Frequencies in bins of 0.25 sigma out to 4 sigma, and the tails beyond (the ziggurat's
+        // base-layer tail starts at 3.65): Pearson chi-square against the exact bin masses.
+        let cdf = |x: f64| 1.0 - scene_gen_core::stats::normal_tail(x);
+        let edges: Vec<f64> = (-16..=16).map(|i| f64::from(i) * 0.25).collect();
+        let mut counts = vec![0usize; edges.len() + 1];
+        for x in &d {
+            counts[edges.partition_point(|e| e <= x)] += 1;
+        }
+        let mut chi2 = 0.0;
+        for (i, &c) in counts.iter().enumerate() {
+            let lo = if i == 0 { 0.0 } else { cdf(edges[i - 1]) };
+            let hi = if i == edges.len() { 1.0 } else { cdf(edges[i]) };
+            let e = nf * (hi - lo);
+            chi2 += (c as f64 - e).powi(2) / e;
+        }
+        // 33 degrees of freedom: the 99.9 % point is about 63.9.
+        assert!(chi2 < 63.9, "chi-square {chi2} over {} bins", counts.len());
+        let beyond = d.iter().filter(|x| x.abs() > 3.7).count() as f64;
+        let expect = nf * 2.0 * scene_gen_core::stats::normal_tail(3.7);
+        assert!((beyond - expect).abs() < 5.0 * expect.sqrt(), "beyond 3.7: {beyond}, expected {expect}");
+    }
+
+    #[test]
+    fn signal_plus_dark_electrons_are_poisson_of_the_summed_mean() {
+        // K = 1 DN/e, no read noise, no black level, no clipping: DN = the electron count, which
+        // must follow Poisson(QE photons + dark t) exactly, on both sides of the inversion / PTRS
+        // switch (mean 3.5 and 45.5), signal and dark drawn as one Poisson of the summed mean,
+        // with and without hot pixels adding to the dark mean.
+        for (photons, hot) in [(3.0f32, false), (45.0, false), (3.0, true)] {
+            let model = SensorModel {
+                name: "test".into(),
+                quantum_efficiency: 1.0,
+                system_gain_dn_per_e: 1.0,
+                read_noise_e: 0.0,
+                adc_bits: 16,
+                pattern_seed: 1,
+                effects: Effects {
+                    dark_current: DarkCurrent { enabled: true, rate_e_per_s: 50.0 },
+                    quantization: Quantization { enabled: true },
+                    hot_pixels: HotPixels { enabled: hot, fraction: 1.0, max_excess_e_per_s: 1e-9 },
+                    ..Effects::default()
+                },
+            };
+            let (w, h) = (500, 400);
+            let dn = model.simulate(&vec![photons; w * h], w, h, 0.01, 0.0, 8);
+            let lambda = f64::from(photons) + 0.5;
+            let n = dn.len() as f64;
+            let mut counts = std::collections::BTreeMap::new();
+            for &v in &dn {
+                *counts.entry(v).or_insert(0usize) += 1;
+            }
+            // Pearson chi-square over every count with at least 5 expected, the rest pooled.
+            let pmf = |k: u16| (f64::from(k) * lambda.ln() - lambda - ln_factorial(f64::from(k))).exp();
+            let (mut chi2, mut bins, mut pooled_obs, mut pooled_exp) = (0.0, 0, 0.0, 1.0);
+            for k in 0..(lambda * 3.0) as u16 + 20 {
+                let e = n * pmf(k);
+                let o = *counts.get(&k).unwrap_or(&0) as f64;
+                if e >= 5.0 {
+                    chi2 += (o - e).powi(2) / e;
+                    bins += 1;
+                    pooled_exp -= pmf(k);
+                } else {
+                    pooled_obs += o;
+                }
+            }
+            let beyond = dn.iter().filter(|&&v| f64::from(v) >= lambda * 3.0 + 20.0).count() as f64;
+            let e = n * pooled_exp;
+            chi2 += (pooled_obs + beyond - e).powi(2) / e;
+            let dof = f64::from(bins);
+            assert!(chi2 < dof + 5.0 * (2.0 * dof).sqrt(), "mean {lambda}: chi-square {chi2} over {bins} bins");
+            let mean = dn.iter().map(|&v| f64::from(v)).sum::<f64>() / n;
+            assert!((mean - lambda).abs() < 5.0 * (lambda / n).sqrt(), "mean {mean}, expected {lambda}");
+        }
+    }
+
+    #[test]
+    fn round_and_floor_match_the_library_bit_for_bit() {
+        let special = [
+            0.0,
+            -0.0,
+            0.5,
+            -0.5,
+            1.5,
+            2.5,
+            -2.5,
+            0.49999999999999994,
+            -0.49999999999999994,
+            4503599627370495.5,
+            -4503599627370495.5,
+            4503599627370496.0,
+            9.0e15,
+            1e300,
+            f64::MIN_POSITIVE,
+            -f64::MIN_POSITIVE,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::MAX,
+        ];
+        let mut rng = rng::stream(5, "test");
+        let random = (0..200_000).map(|i| {
+            let x: f64 = rng.random::<f64>() * 2.0 - 1.0;
+            // Scales from 1 to 2^60, and half-integers, which round must break away from zero.
+            if i % 3 == 0 { (x * 8192.0).trunc() + 0.5 } else { x * 2f64.powi(i % 61) }
+        });
+        for x in special.into_iter().chain(random) {
+            assert_eq!(round_exact(x).to_bits(), x.round().to_bits(), "round {x:e}");
+            assert_eq!(floor_exact(x).to_bits(), x.floor().to_bits(), "floor {x:e}");
+        }
+        assert!(round_exact(f64::NAN).is_nan() && floor_exact(f64::NAN).is_nan());
+    }
+
+    #[test]
+    fn ln_factorial_is_continuous_at_the_switch() {
+        let exact: f64 = (2..=25u32).map(|i| f64::from(i).ln()).sum();
+        assert!((ln_factorial(25.0) - exact).abs() < 1e-9);
+        assert!((ln_factorial(19.0) - (2..=19u32).map(|i| f64::from(i).ln()).sum::<f64>()).abs() < 1e-12);
+        // The table holds exactly the values it replaced, on both sides of the switches.
+        for k in (0..100u32).chain([LN_FACTORIAL_TABLE as u32 - 1, LN_FACTORIAL_TABLE as u32, 40_000]) {
+            let k = f64::from(k);
+            assert_eq!(ln_factorial(k).to_bits(), ln_factorial_direct(k).to_bits(), "k {k}");
+        }
+    }
+
+    /// The AVX2 clone of the row loop gives the baseline's values bit for bit with every sensor
+    /// effect on (both Poisson branches on a dark-to-bright ramp, hot pixels, the periodic
+    /// pattern in its non-separable form, unquantised output so no rounding hides a low-bit
+    /// difference).
+    #[test]
+    fn the_avx2_clone_simulates_the_values_of_the_baseline() {
+        let sensor = crate::sensor::Catalog::embedded().get("IMX174").unwrap().clone();
+        let mut model = SensorModel::from_sensor(&sensor, 1);
+        model.effects = Effects {
+            read_noise_split: ReadNoiseSplit { enabled: true, post_gain_fraction: 0.3 },
+            nonlinearity: Nonlinearity { enabled: true, a: -0.02 },
+            dsnu: Dsnu { enabled: true, std_e: 5.0 },
+            prnu: Prnu { enabled: true, std_fraction: 0.01 },
+            hot_pixels: HotPixels { enabled: true, fraction: 0.01, max_excess_e_per_s: 1e4 },
+            row_column_noise: RowColumnNoise { enabled: true, row_std_dn: 0.5, column_std_dn: 0.5 },
+            periodic_pattern: PeriodicPattern {
+                enabled: true,
+                amplitude_dn: 1.0,
+                freq_x_cycles_per_px: 0.04,
+                freq_y_cycles_per_px: 0.2,
+                wave_x_freq_y_cycles_per_px: 0.01,
+                wave_y_freq_x_cycles_per_px: 0.03,
+            },
+            quantization: Quantization { enabled: false },
+            ..model.effects
+        };
+        let (w, h) = (96, 12);
+        let photons: Vec<f32> = (0..w * h).map(|i| (i % w) as f32 / w as f32 * 30_000.0).collect();
+        let pattern = model.fixed_pattern(w, h);
+        let sim = model.frame_simulator(&pattern, 0.01, 6.0, 3);
+        let generic = sim.frame(Dispatch::Generic, &photons, f64::to_bits);
+        assert_eq!(generic, sim.frame(Dispatch::Avx2Fma, &photons, f64::to_bits));
+        // Noisy, not a constant: the comparison means something.
+        assert!(generic.iter().filter(|&&v| v != generic[0]).count() > w * h / 2);
+    }
+}

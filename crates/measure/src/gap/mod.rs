@@ -1,0 +1,499 @@
+//! The sim-vs-measured gap workflow (`scene-gen gap`): compare an EMVA 1288 measurement with the
+//! same acquisition simulated by the project's noise model, name the effects the model is
+//! missing, add them one at a time, and show the gap shrink.
+//!
+//! 1. Start model: the EMVA 1288 linear model fitted to the data (K, read noise, QE from
+//!    [`crate::calibration`]; K and the read noise then refined by simulation so the photon
+//!    transfer and the dark variance match, which also undoes the bias of dark frames clipped
+//!    at 0 DN), every effect of DESIGN.md off except quantization; or a given model.
+//! 2. The acquisition is simulated block by block with [`SensorModel::simulate_with`] (the
+//!    renderer's code path): same exposures, photons per pixel, frame counts and image size;
+//!    fixed seeds, the same for every candidate model (common random numbers, so candidates
+//!    differ by their parameters, not by their noise draws).
+//! 3. [`stats`] computes the same statistics on both stacks, grouped in families.
+//! 4. The gap: per family the chi-square per degree of freedom of the residuals, each divided
+//!    by its sampling uncertainty (measured and simulated combined); the gap is the mean of
+//!    the families' values minus one, so a model that matches within sampling noise scores
+//!    about 0 ([`stats::gap`]).
+//! 5. [`fit`]: every effect the data can show gets its parameters in closed form from the
+//!    statistics; the candidate whose re-simulated chi-square drops most is added when the
+//!    drop beats twice the Bayesian information criterion penalty, `2 k ln n` (k parameters, n
+//!    statistics; the factor 2 because the sampling variances are estimated, see
+//!    [`fit::PENALTY_FACTOR`]); after each addition the linear model's nuisance parameters
+//!    (K, read noise, responsivity) and the added effects are refitted; repeat until no
+//!    candidate earns its place.
+//!
+//! Hidden-effect data sets (tests/gap.rs, [`testdata`]): see the tests for the measured hit
+//! rates (40 single-gain cases, 12 two-gain cases, CSVs). On EMVA 1288 data set 003 (centre
+//! crop) it names black level, nonlinearity, DSNU, the diagonal periodic DSNU waves, PRNU, hot
+//! pixels and the slight fall-off. Hot pixels: the tail is counted on the averaged dark residual
+//! with its periodic waves removed ([`stats::remove_waves`]), above a threshold set by a stated
+//! false-alarm rate over the pixels ([`stats::tail_sigmas`], [`stats::DARK_TAIL_FALSE_ALARM`]:
+//! a Bonferroni bound, 5.3 sigmas of the pixel noise at 160x120, ~8.5 DN), and scored by its
+//! Poisson deviance ([`stats::count_deviance`]) against the plain BIC penalty
+//! ([`fit::COUNT_PENALTY_FACTOR`]: a count's variance is not estimated). The crop's ~6 hot
+//! pixels (excess 0..15 DN) leave one pixel above the threshold (at 6.8 sigmas), which the
+//! Gaussian core explains with probability ~1e-7 over the whole crop; its deviance, ~11, beats
+//! the 2-parameter penalty of 9.5.
+//!
+//! Cost: most of a run is simulating the acquisition (every pixel of every frame draws Poisson
+//! and Gaussian noise: a ziggurat normal and PTRS Poisson in [`scene_gen_camera::sensor::noise`]), about
+//! 150 times. The
+//! statistics use FFTs ([`stats::periodogram_2d`]) and separable wave tables, the search keeps
+//! its last evaluations ([`fit`]: an unchanged model is not simulated again), and on frames of
+//! 240 rows or more the candidates of a round are screened on the top quarter of the rows
+//! (bit for bit the full simulation's rows, [`simulate_rows`]) and only the best
+//! [`fit::SCREEN_KEEP`] simulated in full ([`GapOptions::screen`]); docs/BENCHMARKS.md has the
+//! figures.
+//!
+//! Inputs ([`run_inputs`]): one descriptor; several descriptors of one camera at different gains
+//! (gain groups; the gains are measured from the response, [`load_acquisitions`]), where
+//! `read_noise_split` becomes a candidate; or one photon-transfer CSV ([`csv`]: photon transfer,
+//! linearity and dark statistics only, per gain). With one gain `read_noise_split` is never
+//! proposed (it changes nothing there). `illumination_falloff` is an optics effect
+//! ([`OPTICS_EFFECTS`]); the workflow models it on the photon image and writes it to
+//! `optics.toml` beside `model.toml`.
+//!
+//! [`OPTICS_EFFECTS`]: scene_gen_camera::sensor::noise::OPTICS_EFFECTS
+
+pub mod csv;
+pub mod fit;
+pub mod report;
+pub mod stats;
+pub mod testdata;
+
+use std::path::{Path, PathBuf};
+
+use rand::Rng as _;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use crate::calibration::emva::{self, BlockKind, EmvaError};
+use crate::calibration::{self, CalibrationError};
+use scene_gen_camera::sensor::SensorModel;
+use scene_gen_camera::sensor::noise::ModelError;
+use scene_gen_core::rng;
+
+/// The workflow failed.
+#[derive(Debug, thiserror::Error)]
+pub enum GapError {
+    #[error(transparent)]
+    Emva(#[from] EmvaError),
+    #[error(transparent)]
+    Calibration(#[from] CalibrationError),
+    #[error(transparent)]
+    Model(#[from] ModelError),
+    #[error(transparent)]
+    Ptc(#[from] calibration::ptc::PtcError),
+    #[error("{}: {message}", path.display())]
+    Unusable { path: PathBuf, message: String },
+}
+
+/// Options of the workflow.
+#[derive(Debug, Clone)]
+pub struct GapOptions {
+    /// Seed of the simulated acquisitions (fixed patterns and temporal noise).
+    pub seed: u64,
+    /// Frames used of each spatial stack (the first ones); None: all. Averages of 32 frames
+    /// already put the residual temporal variance at 1/32 of a frame's.
+    pub max_stack_frames: Option<usize>,
+    /// Use every n-th photon-transfer step (1: all).
+    pub step_stride: usize,
+    /// Screen the candidates of a round on the top quarter of the sensor's rows and simulate
+    /// the whole acquisition only for the most promising ones ([`fit::SCREEN_KEEP`]); only on
+    /// frames of at least [`fit::SCREEN_MIN_ROWS`] rows. False: every candidate in full.
+    pub screen: bool,
+}
+
+impl Default for GapOptions {
+    fn default() -> Self {
+        GapOptions { seed: 1288, max_stack_frames: Some(32), step_stride: 1, screen: true }
+    }
+}
+
+/// Bright (photons per pixel, mean over the frame) or dark.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Light {
+    Bright(f64),
+    Dark,
+}
+
+/// One block of an acquisition: a temporal pair or a spatial stack.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Block {
+    pub light: Light,
+    pub exposure_s: f64,
+    /// Gain group: index into [`Acquisition::gains_db`] (one group per input file or CSV gain).
+    pub group: usize,
+    /// Frames, row-major `width x height` DN values.
+    pub frames: Vec<Vec<f32>>,
+}
+
+/// A measured or simulated EMVA 1288 acquisition.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Acquisition {
+    pub width: usize,
+    pub height: usize,
+    pub bits: u32,
+    pub blocks: Vec<Block>,
+    /// Analog gain of each group, dB (the model's K is at 0 dB). Group 0 is the reference: the
+    /// first descriptor (0 dB, the others relative to it) or the lowest gain of a CSV.
+    pub gains_db: Vec<f64>,
+}
+
+/// Loads the images of an EMVA 1288 descriptor (spatial stacks cut to `max_stack_frames`,
+/// photon-transfer pairs thinned to every `step_stride`-th bright pair).
+pub fn load_acquisition(path: &Path, options: &GapOptions) -> Result<Acquisition, GapError> {
+    let d = emva::read_descriptor(path)?;
+    let (w, h, bits) = (d.width, d.height, d.bits);
+    let mut blocks = Vec::new();
+    let mut bright_pair = 0usize;
+    for b in &d.blocks {
+        let pair = b.images.len() == 2;
+        let light = match b.kind {
+            BlockKind::Bright { photons } => Light::Bright(photons),
+            BlockKind::Dark => Light::Dark,
+        };
+        if pair && matches!(light, Light::Bright(_)) {
+            bright_pair += 1;
+            if (bright_pair - 1) % options.step_stride.max(1) != 0 {
+                continue;
+            }
+        }
+        let take = if pair { 2 } else { options.max_stack_frames.unwrap_or(usize::MAX).max(2) };
+        let frames =
+            b.images.iter().take(take).map(|p| emva::load_image(p, w, h, bits)).collect::<Result<Vec<_>, _>>()?;
+        blocks.push(Block { light, exposure_s: b.exposure_s(), group: 0, frames });
+    }
+    Ok(Acquisition { width: w as usize, height: h as usize, bits, blocks, gains_db: vec![0.0] })
+}
+
+/// Illumination fall-off of the optics, applied to the photon image: photons at normalised
+/// radius `rho` (1 at the corners) are `p (1 - c (rho^2 - mean rho^2))`, so the frame mean stays
+/// the descriptor's photon count.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct IlluminationFalloff {
+    pub enabled: bool,
+    /// Relative loss from the centre to the corners, `c`.
+    pub corner_loss_fraction: f64,
+}
+
+/// The optics part of a model (what `optics.toml` holds).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Optics {
+    pub illumination_falloff: IlluminationFalloff,
+}
+
+/// A sensor model and the optics effects it is simulated with.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GapModel {
+    pub sensor: SensorModel,
+    pub optics: Optics,
+}
+
+impl GapModel {
+    /// Names of the effects switched on (quantization left out: it is always on).
+    #[must_use]
+    pub fn named(&self) -> Vec<&'static str> {
+        let mut v: Vec<&'static str> =
+            self.sensor.effects.enabled_names().into_iter().filter(|n| *n != "quantization").collect();
+        if self.optics.illumination_falloff.enabled {
+            v.push("illumination_falloff");
+        }
+        v
+    }
+}
+
+/// Normalised squared radius per pixel minus its mean (see [`IlluminationFalloff`]).
+#[must_use]
+pub fn radius2_map(width: usize, height: usize) -> Vec<f64> {
+    let (cx, cy) = ((width as f64 - 1.0) / 2.0, (height as f64 - 1.0) / 2.0);
+    let r2max = cx * cx + cy * cy;
+    let mut v: Vec<f64> = (0..width * height)
+        .map(|i| {
+            let (x, y) = ((i % width) as f64 - cx, (i / width) as f64 - cy);
+            if r2max > 0.0 { (x * x + y * y) / r2max } else { 0.0 }
+        })
+        .collect();
+    let mean = v.iter().sum::<f64>() / v.len().max(1) as f64;
+    v.iter_mut().for_each(|r| *r -= mean);
+    v
+}
+
+/// Seed of frame `frame` of block `block`.
+fn frame_seed(seed: u64, block: usize, frame: usize) -> u64 {
+    rng::substream(seed, "gap/frame", ((block as u64) << 24) | frame as u64).random::<u64>()
+}
+
+/// Simulates the blocks `which` of `layout` (all when None) with `model`; other blocks are left
+/// empty. Block `i`, frame `j` always draws from the same seed, whatever else is simulated.
+#[must_use]
+pub fn simulate_acquisition(model: &GapModel, layout: &Acquisition, seed: u64, which: Option<&[usize]>) -> Acquisition {
+    simulate_rows(model, layout, seed, which, layout.height)
+}
+
+/// [`simulate_acquisition`] cut to the first `rows` rows of the sensor: every fixed-pattern map
+/// and every frame's temporal noise is drawn row by row from its own substream, and the
+/// fall-off map is the full sensor's, so these rows are bit for bit the full simulation's.
+#[must_use]
+pub fn simulate_rows(
+    model: &GapModel,
+    layout: &Acquisition,
+    seed: u64,
+    which: Option<&[usize]>,
+    rows: usize,
+) -> Acquisition {
+    let (w, full_h) = (layout.width, layout.height);
+    let h = rows.min(full_h);
+    let mut sensor = model.sensor.clone();
+    sensor.adc_bits = layout.bits;
+    let pattern = sensor.fixed_pattern(w, h);
+    let falloff = model.optics.illumination_falloff;
+    let r2 = falloff.enabled.then(|| {
+        let mut r2 = radius2_map(w, full_h);
+        r2.truncate(w * h);
+        r2
+    });
+    let photon_map = |p: f64| -> Vec<f32> {
+        match &r2 {
+            Some(r2) => r2.iter().map(|r| (p * (1.0 - falloff.corner_loss_fraction * r)).max(0.0) as f32).collect(),
+            None => vec![p as f32; w * h],
+        }
+    };
+    let blocks = layout
+        .blocks
+        .iter()
+        .enumerate()
+        .map(|(bi, b)| {
+            if which.is_some_and(|s| !s.contains(&bi)) {
+                return Block { light: b.light, exposure_s: b.exposure_s, group: b.group, frames: Vec::new() };
+            }
+            let photons = photon_map(match b.light {
+                Light::Bright(p) => p,
+                Light::Dark => 0.0,
+            });
+            let gain_db = layout.gains_db.get(b.group).copied().unwrap_or(0.0);
+            let frames = (0..b.frames.len())
+                .into_par_iter()
+                .map(|fi| {
+                    let dn = sensor.simulate_with(&pattern, &photons, b.exposure_s, gain_db, frame_seed(seed, bi, fi));
+                    dn.into_iter().map(f32::from).collect()
+                })
+                .collect();
+            Block { light: b.light, exposure_s: b.exposure_s, group: b.group, frames }
+        })
+        .collect();
+    Acquisition { width: w, height: h, bits: layout.bits, blocks, gains_db: layout.gains_db.clone() }
+}
+
+impl Acquisition {
+    /// The first `rows` rows of every frame (the sensor window [`simulate_rows`] simulates).
+    #[must_use]
+    pub fn top_rows(&self, rows: usize) -> Acquisition {
+        let h = rows.min(self.height);
+        let blocks = self
+            .blocks
+            .iter()
+            .map(|b| Block {
+                light: b.light,
+                exposure_s: b.exposure_s,
+                group: b.group,
+                frames: b.frames.iter().map(|f| f[..(self.width * h).min(f.len())].to_vec()).collect(),
+            })
+            .collect();
+        Acquisition { width: self.width, height: h, bits: self.bits, blocks, gains_db: self.gains_db.clone() }
+    }
+}
+
+/// The start model: the EMVA 1288 linear model of the calibration (K, QE, read noise), every
+/// effect off but quantization.
+pub fn start_model(path: &Path, bits: u32, seed: u64) -> Result<GapModel, GapError> {
+    let cal = calibration::calibrate_emva(path)?;
+    let mut sensor = cal.to_sensor_model("measured", seed);
+    sensor.adc_bits = bits;
+    let q = sensor.effects.quantization;
+    sensor.effects = scene_gen_camera::sensor::noise::Effects { quantization: q, ..Default::default() };
+    sensor.effects.quantization.enabled = true;
+    sensor.validate()?;
+    Ok(GapModel { sensor, optics: Optics::default() })
+}
+
+/// One accepted step of the search.
+#[derive(Debug, Clone, Serialize)]
+pub struct Step {
+    pub effect: String,
+    pub params: serde_json::Value,
+    pub gap_before: f64,
+    pub gap_after: f64,
+    /// Drop of the total chi-square, the BIC penalty it had to beat, and the families that
+    /// improved.
+    pub evidence: String,
+}
+
+/// One candidate tried in a round (for the report).
+#[derive(Debug, Clone, Serialize)]
+pub struct Trial {
+    pub round: usize,
+    pub effect: String,
+    pub chi2_drop: f64,
+    pub penalty: f64,
+    pub gap_after: f64,
+    /// True: only screened on the top rows of the sensor (see [`GapOptions::screen`]); the drop
+    /// is then the chi-square drop on that window, and `gap_after` is NaN (not simulated).
+    pub screened: bool,
+}
+
+/// The result of the workflow.
+#[derive(Debug, Clone)]
+pub struct GapResult {
+    pub initial: GapModel,
+    pub final_model: GapModel,
+    pub measured: stats::Stats,
+    pub initial_stats: stats::Stats,
+    pub final_stats: stats::Stats,
+    pub gap_initial: stats::Gap,
+    pub gap_final: stats::Gap,
+    pub steps: Vec<Step>,
+    pub trials: Vec<Trial>,
+    /// Gain of each input group as finally fitted, dB (group 0 the reference).
+    pub gains_db: Vec<f64>,
+    /// Whole-acquisition simulations the search ran (the read-noise refit's dark-pair
+    /// simulations and the screening windows not counted).
+    pub simulations: usize,
+    /// Evaluations answered from the search's cache of recent models instead of simulated.
+    pub cached_evaluations: usize,
+}
+
+impl GapResult {
+    /// Effects the workflow added, in the order it added them.
+    #[must_use]
+    pub fn named(&self) -> Vec<String> {
+        self.steps.iter().map(|s| s.effect.clone()).collect()
+    }
+}
+
+/// Response slope of gain group `group` (DN per photon): least squares of the pair means minus
+/// the dark pair nearest in exposure, over the steps in the lower 40 % of the range above dark.
+/// Every group is fitted over the same DN window, so a nonlinearity (a function of DN) biases
+/// every group's slope alike and their ratio, the relative gain, stays unbiased.
+fn group_slope(acq: &Acquisition, group: usize) -> Option<f64> {
+    let pair_mean = |b: &Block| -> f64 {
+        let s: f64 = b.frames.iter().flat_map(|f| f.iter()).map(|&v| f64::from(v)).sum();
+        s / (b.frames.len() * b.frames[0].len()).max(1) as f64
+    };
+    let pairs = || acq.blocks.iter().filter(|b| b.group == group && b.frames.len() == 2);
+    let darks: Vec<(f64, f64)> =
+        pairs().filter(|b| b.light == Light::Dark).map(|b| (b.exposure_s, pair_mean(b))).collect();
+    let max = f64::from((1u32 << acq.bits) - 1);
+    let (mut xs, mut ys) = (Vec::new(), Vec::new());
+    for b in pairs() {
+        let Light::Bright(p) = b.light else { continue };
+        let &(_, d) = darks.iter().min_by(|a, c| (a.0 - b.exposure_s).abs().total_cmp(&(c.0 - b.exposure_s).abs()))?;
+        let y = pair_mean(b) - d;
+        if y <= 0.4 * (max - d) {
+            xs.push(p);
+            ys.push(y);
+        }
+    }
+    if xs.len() < 2 {
+        return None;
+    }
+    // Through the origin: the signal above dark is zero without light.
+    let sxy: f64 = xs.iter().zip(&ys).map(|(x, y)| x * y).sum();
+    let sxx: f64 = xs.iter().map(|x| x * x).sum();
+    (sxx > 0.0).then(|| sxy / sxx)
+}
+
+/// Loads several descriptors of one camera, taken at different gains, as one acquisition: file
+/// `i` becomes gain group `i`. EMVA 1288 descriptors do not state the gain, so it is measured:
+/// the ratio of each file's response slope to the first file's (`group_slope`), the first file
+/// at 0 dB. The workflow refines these ratios as nuisance parameters.
+pub fn load_acquisitions(paths: &[PathBuf], options: &GapOptions) -> Result<Acquisition, GapError> {
+    let first = paths.first().ok_or_else(|| GapError::Unusable { path: PathBuf::new(), message: "no input".into() })?;
+    let mut acq = load_acquisition(first, options)?;
+    for (i, path) in paths.iter().enumerate().skip(1) {
+        let next = load_acquisition(path, options)?;
+        if (next.width, next.height, next.bits) != (acq.width, acq.height, acq.bits) {
+            return Err(GapError::Unusable {
+                path: path.clone(),
+                message: format!(
+                    "{} x {} pixels at {} bit; expected {} x {} at {} bit as in {} (one camera, several gains)",
+                    next.width,
+                    next.height,
+                    next.bits,
+                    acq.width,
+                    acq.height,
+                    acq.bits,
+                    first.display()
+                ),
+            });
+        }
+        acq.blocks.extend(next.blocks.into_iter().map(|b| Block { group: i, ..b }));
+        acq.gains_db.push(0.0);
+    }
+    let base = group_slope(&acq, 0);
+    for (i, path) in paths.iter().enumerate().skip(1) {
+        let slope = base.zip(group_slope(&acq, i)).filter(|(a, b)| *a > 0.0 && *b > 0.0);
+        let Some((a, b)) = slope else {
+            return Err(GapError::Unusable {
+                path: path.clone(),
+                message: "cannot measure its gain relative to the first input: each input needs a dark pair and 2 bright pairs in the lower 40 % of the range".into(),
+            });
+        };
+        acq.gains_db[i] = 20.0 * (b / a).log10();
+    }
+    Ok(acq)
+}
+
+/// Is `path` a photon-transfer CSV (by its extension)?
+#[must_use]
+pub fn is_csv(path: &Path) -> bool {
+    path.extension().is_some_and(|e| e.eq_ignore_ascii_case("csv"))
+}
+
+/// Runs the workflow on one measurement of a camera: an EMVA 1288 descriptor, several
+/// descriptors of the same camera at different gains (see [`load_acquisitions`]), or one
+/// photon-transfer CSV (see [`csv`]); from the calibrated start model, or from `model`.
+pub fn run_inputs(paths: &[PathBuf], model: Option<GapModel>, options: &GapOptions) -> Result<GapResult, GapError> {
+    let Some(first) = paths.first() else {
+        return Err(GapError::Unusable { path: PathBuf::new(), message: "no measured input given".into() });
+    };
+    if paths.iter().any(|p| is_csv(p)) {
+        if paths.len() > 1 {
+            return Err(GapError::Unusable {
+                path: first.clone(),
+                message: "a photon-transfer CSV holds every gain itself: give it alone".into(),
+            });
+        }
+        return csv::run(first, model, options);
+    }
+    let measured = load_acquisitions(paths, options)?;
+    let unusable = |message: String| GapError::Unusable { path: first.clone(), message };
+    let pairs = measured
+        .blocks
+        .iter()
+        .filter(|b| b.group == 0 && b.frames.len() == 2 && matches!(b.light, Light::Bright(_)))
+        .count();
+    if pairs < 3 {
+        return Err(unusable(format!("{pairs} bright pairs; the photon transfer needs at least 3")));
+    }
+    if !measured.blocks.iter().any(|b| b.group == 0 && b.frames.len() == 2 && b.light == Light::Dark) {
+        return Err(unusable("no dark pair ('d' block with 2 images)".into()));
+    }
+    let refine = model.is_none();
+    let start = match model {
+        Some(m) => m,
+        None => start_model(first, measured.bits, options.seed)?,
+    };
+    let t = stats::thresholds(&measured);
+    let mut m = stats::compute(&measured, &t);
+    m.thresholds = Some(t);
+    Ok(fit::search(&measured, m, false, start, refine, options))
+}
+
+/// Runs the workflow on one descriptor (see [`run_inputs`]).
+pub fn run(path: &Path, model: Option<GapModel>, options: &GapOptions) -> Result<GapResult, GapError> {
+    run_inputs(&[path.to_path_buf()], model, options)
+}

@@ -1,0 +1,351 @@
+//! The test chart: its layout in pixels and its image through the project's camera path.
+//!
+//! The chart is a flat, matte (Lambertian) board facing the camera at `distance_m`, sized to
+//! fill the view exactly, so its layout in pixels does not depend on the distance (only its size
+//! in metres does). It is cut into a grid of 8 x 5 cells:
+//!
+//! ```text
+//!   col  0    1    2    3    4    5    6    7
+//! row 0  P    P    P    P    P    P    P    P        P: grey patch (known reflectance)
+//!     1  P    P   [ edge V  ][ edge H  ]  P    P      edge V: near-vertical edge, 5 deg off
+//!     2  P    P   [         ][         ]  P    P              vertical (dark left, bright right)
+//!     3  P    P   [   texture (random blocks)  ]  P    P      edge H: near-horizontal edge, 5 deg
+//!     4  P    P    P    P    P    P    P    P                off horizontal (dark top)
+//! ```
+//!
+//! The 28 grey patches sit at radii 0.5..1 of the half-diagonal, so their reflectance-normalised
+//! brightness gives the radial fall-off; the two slanted edges give the edge spread across x and
+//! across y (slanted-edge method, ISO 12233 style: the slant spreads pixel phases so the binned
+//! ESF is oversampled); the texture gives ORB keypoints.
+//!
+//! Rendering: reflectance (4 x 4 supersampled per pixel, so edges are area-averaged) times the
+//! chart illuminance gives luminance `L = E rho / pi`; [`scene_gen_camera::radiometry::photon_image`] turns
+//! it into photons per pixel (camera equation, the spec's cos^4 vignetting, exposure, pixel
+//! area), and [`SensorModel::simulate`] into DN. The illuminance is chosen so that a white patch
+//! on axis reaches [`WHITE_FRACTION`] of the ADC range at the camera's day gain (auto exposure),
+//! and recorded in the layout.
+
+use rand::Rng as _;
+use serde::{Deserialize, Serialize};
+
+use scene_gen_camera::camera_spec::ResolvedCamera;
+use scene_gen_camera::sensor::SensorModel;
+use scene_gen_core::rng;
+use scene_gen_render::Camera;
+
+/// Schema tag of the layout JSON.
+pub const LAYOUT_SCHEMA: &str = "scene-gen/target-layout/1";
+
+/// Grid of the chart, cells across and down.
+pub const GRID: (usize, usize) = (8, 5);
+
+/// Reflectances the grey patches cycle through: roughly even steps in lightness from a dark
+/// grey to a near white, like the grey row of a ColorChecker (stated design, not a product).
+pub const PATCH_REFLECTANCES: [f64; 7] = [0.05, 0.10, 0.18, 0.30, 0.45, 0.65, 0.88];
+
+/// Reflectances of the dark and bright sides of the slanted edges. A moderate contrast
+/// (ISO 12233:2017 recommends about 4:1 for the slanted edge) keeps both sides off the clip.
+pub const EDGE_DARK: f64 = 0.15;
+pub const EDGE_BRIGHT: f64 = 0.60;
+
+/// Slant of the edges from the pixel grid, degrees (ISO 12233 uses about 5 deg).
+pub const EDGE_SLANT_DEG: f64 = 5.0;
+
+/// A white patch on axis is exposed to this fraction of the ADC range (auto exposure).
+pub const WHITE_FRACTION: f64 = 0.7;
+
+/// Supersampling per pixel side when rendering the reflectance.
+const SUPERSAMPLE: usize = 4;
+
+/// Pixel box, half-open: `x0 <= x < x1`, `y0 <= y < y1`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct PixelBox {
+    pub x0: usize,
+    pub y0: usize,
+    pub x1: usize,
+    pub y1: usize,
+}
+
+impl PixelBox {
+    /// The box shrunk by `m` pixels on each side.
+    #[must_use]
+    pub fn inset(&self, m: usize) -> PixelBox {
+        PixelBox { x0: self.x0 + m, y0: self.y0 + m, x1: self.x1.saturating_sub(m), y1: self.y1.saturating_sub(m) }
+    }
+
+    fn contains(&self, x: f64, y: f64) -> bool {
+        x >= self.x0 as f64 && x < self.x1 as f64 && y >= self.y0 as f64 && y < self.y1 as f64
+    }
+
+    /// Centre in continuous pixel coordinates.
+    #[must_use]
+    pub fn centre(&self) -> (f64, f64) {
+        ((self.x0 + self.x1) as f64 / 2.0, (self.y0 + self.y1) as f64 / 2.0)
+    }
+}
+
+/// One grey patch.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Patch {
+    pub id: usize,
+    pub reflectance: f64,
+    /// The whole cell.
+    pub cell: PixelBox,
+    /// The region the statistics use: the cell inset by a quarter of its size, clear of blur
+    /// from the neighbouring cells.
+    pub roi: PixelBox,
+    /// Distance of the centre from the image centre over the half-diagonal (0..1).
+    pub radius: f64,
+}
+
+/// One slanted edge: the line through `point` with direction `angle_deg` (from the image x axis,
+/// y down); the bright side is where `(p - point) . normal > 0`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Edge {
+    /// "vertical" (its spread is across x) or "horizontal" (across y).
+    pub id: String,
+    pub cell: PixelBox,
+    pub point: [f64; 2],
+    pub angle_deg: f64,
+    pub normal: [f64; 2],
+    pub dark: f64,
+    pub bright: f64,
+}
+
+impl Edge {
+    /// Signed distance of a continuous pixel position from the edge line, pixels (positive on
+    /// the bright side).
+    #[must_use]
+    pub fn distance(&self, x: f64, y: f64) -> f64 {
+        (x - self.point[0]) * self.normal[0] + (y - self.point[1]) * self.normal[1]
+    }
+}
+
+/// Where everything is, in pixels, and how the chart was exposed. The measured photograph is
+/// assumed registered to this layout (same size, same framing); registration is out of scope.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Layout {
+    pub schema: String,
+    pub sensor: String,
+    pub width_px: usize,
+    pub height_px: usize,
+    /// ADC depth of the DN values (a 16-bit PNG holds them unscaled).
+    pub bits: u32,
+    pub distance_m: f64,
+    pub chart_width_m: f64,
+    pub chart_height_m: f64,
+    pub illuminance_lux: f64,
+    pub exposure_s: f64,
+    pub gain_db: f64,
+    pub black_level_dn: f64,
+    pub patches: Vec<Patch>,
+    pub edges: Vec<Edge>,
+    /// Random blocks for ORB keypoints.
+    pub texture: PixelBox,
+    /// Side of a texture block, pixels.
+    pub texture_block_px: usize,
+    /// Seed of the texture blocks.
+    pub texture_seed: u64,
+}
+
+/// Seed of the texture, fixed: the chart is one printed object.
+const TEXTURE_SEED: u64 = 12233;
+
+fn cell(c: usize, r: usize, w: usize, h: usize) -> PixelBox {
+    let (gx, gy) = GRID;
+    PixelBox { x0: c * w / gx, y0: r * h / gy, x1: (c + 1) * w / gx, y1: (r + 1) * h / gy }
+}
+
+fn merged(a: PixelBox, b: PixelBox) -> PixelBox {
+    PixelBox { x0: a.x0.min(b.x0), y0: a.y0.min(b.y0), x1: a.x1.max(b.x1), y1: a.y1.max(b.y1) }
+}
+
+fn edge(id: &str, cell: PixelBox, angle_deg: f64) -> Edge {
+    let (cx, cy) = cell.centre();
+    let a = angle_deg.to_radians();
+    // Normal: the direction rotated +90 deg (y down), then flipped so the bright side is right
+    // (vertical edge) or below (horizontal edge).
+    let mut n = [-a.sin(), a.cos()];
+    if (id == "vertical" && n[0] < 0.0) || (id == "horizontal" && n[1] < 0.0) {
+        n = [-n[0], -n[1]];
+    }
+    Edge { id: id.to_string(), cell, point: [cx, cy], angle_deg, normal: n, dark: EDGE_DARK, bright: EDGE_BRIGHT }
+}
+
+impl Layout {
+    /// The layout for a camera at `width x height` pixels; exposure fields are filled by
+    /// [`chart_layout`].
+    #[must_use]
+    pub fn grid(width: usize, height: usize) -> Layout {
+        let (gx, gy) = GRID;
+        let (cx, cy) = (width as f64 / 2.0, height as f64 / 2.0);
+        let half_diag = (cx * cx + cy * cy).sqrt();
+        let central = |c: usize, r: usize| (2..6).contains(&c) && (1..4).contains(&r);
+        let mut patches = Vec::new();
+        for r in 0..gy {
+            for c in 0..gx {
+                if central(c, r) {
+                    continue;
+                }
+                let cellb = cell(c, r, width, height);
+                let m = ((cellb.x1 - cellb.x0).min(cellb.y1 - cellb.y0) / 4).max(1);
+                let (px, py) = cellb.centre();
+                let radius = ((px - cx).powi(2) + (py - cy).powi(2)).sqrt() / half_diag;
+                let id = patches.len();
+                // Spread the reflectances over the rings: neighbours differ by 3 steps.
+                let reflectance = PATCH_REFLECTANCES[(c * 3 + r * 5) % PATCH_REFLECTANCES.len()];
+                patches.push(Patch { id, reflectance, cell: cellb, roi: cellb.inset(m), radius });
+            }
+        }
+        let ev = merged(cell(2, 1, width, height), cell(3, 2, width, height));
+        let eh = merged(cell(4, 1, width, height), cell(5, 2, width, height));
+        let texture = merged(cell(2, 3, width, height), cell(5, 3, width, height));
+        Layout {
+            schema: LAYOUT_SCHEMA.to_string(),
+            sensor: String::new(),
+            width_px: width,
+            height_px: height,
+            bits: 8,
+            distance_m: 0.0,
+            chart_width_m: 0.0,
+            chart_height_m: 0.0,
+            illuminance_lux: 0.0,
+            exposure_s: 0.0,
+            gain_db: 0.0,
+            black_level_dn: 0.0,
+            patches,
+            edges: vec![edge("vertical", ev, 90.0 + EDGE_SLANT_DEG), edge("horizontal", eh, EDGE_SLANT_DEG)],
+            texture,
+            texture_block_px: (width / 80).max(2),
+            texture_seed: TEXTURE_SEED,
+        }
+    }
+
+    /// Reflectance at a continuous pixel position.
+    #[must_use]
+    pub fn reflectance(&self, x: f64, y: f64, texture: &[f64]) -> f64 {
+        for e in &self.edges {
+            if e.cell.contains(x, y) {
+                return if e.distance(x, y) > 0.0 { e.bright } else { e.dark };
+            }
+        }
+        if self.texture.contains(x, y) {
+            let b = self.texture_block_px as f64;
+            let tw = (self.texture.x1 - self.texture.x0).div_ceil(self.texture_block_px);
+            let (i, j) = (((x - self.texture.x0 as f64) / b) as usize, ((y - self.texture.y0 as f64) / b) as usize);
+            return texture[j * tw + i];
+        }
+        let (gx, gy) = GRID;
+        let c = ((x * gx as f64 / self.width_px as f64) as usize).min(gx - 1);
+        let r = ((y * gy as f64 / self.height_px as f64) as usize).min(gy - 1);
+        self.patches.iter().find(|p| p.cell.contains(x, y)).map_or_else(
+            // A position on a rounded cell border: the patch of the cell it falls in by grid.
+            || {
+                self.patches
+                    .iter()
+                    .find(|p| p.cell == cell(c, r, self.width_px, self.height_px))
+                    .map_or(0.18, |p| p.reflectance)
+            },
+            |p| p.reflectance,
+        )
+    }
+
+    /// Reflectances of the texture blocks, row-major.
+    #[must_use]
+    pub fn texture_blocks(&self) -> Vec<f64> {
+        let b = self.texture_block_px;
+        let (tw, th) =
+            ((self.texture.x1 - self.texture.x0).div_ceil(b), (self.texture.y1 - self.texture.y0).div_ceil(b));
+        let mut r = rng::stream(self.texture_seed, "target/texture");
+        (0..tw * th).map(|_| 0.1 + 0.7 * r.random::<f64>()).collect()
+    }
+
+    /// Reflectance image, area-averaged over each pixel.
+    #[must_use]
+    pub fn reflectance_image(&self) -> Vec<f64> {
+        let tex = self.texture_blocks();
+        let (w, h) = (self.width_px, self.height_px);
+        let s = SUPERSAMPLE as f64;
+        (0..w * h)
+            .map(|i| {
+                let (px, py) = ((i % w) as f64, (i / w) as f64);
+                let mut acc = 0.0;
+                for sy in 0..SUPERSAMPLE {
+                    for sx in 0..SUPERSAMPLE {
+                        acc += self.reflectance(px + (sx as f64 + 0.5) / s, py + (sy as f64 + 0.5) / s, &tex);
+                    }
+                }
+                acc / (s * s)
+            })
+            .collect()
+    }
+}
+
+/// The pinhole camera facing the chart (its pose does not matter: the chart fills the view and
+/// the relative illumination depends only on the field angle).
+#[must_use]
+pub fn chart_camera(resolved: &ResolvedCamera) -> Camera {
+    Camera { pitch_deg: 0.0, ..resolved.camera(glam::Vec3::ZERO, 0.0) }
+}
+
+/// The full layout of `resolved` at `distance_m`: geometry, chart size and exposure.
+#[must_use]
+pub fn chart_layout(resolved: &ResolvedCamera, distance_m: f64) -> Layout {
+    let cam = chart_camera(resolved);
+    let mut layout = Layout::grid(cam.width_px as usize, cam.height_px as usize);
+    let model = resolved.sensor_model(0);
+    let spec = &resolved.spec;
+    let gain_db = spec.gain_day_db;
+    // Photons per pixel on axis for 1 nit, then the luminance putting white at WHITE_FRACTION.
+    let p1 = scene_gen_camera::radiometry::photons_per_pixel(
+        1.0,
+        f64::from(cam.f_number),
+        f64::from(spec.lens_transmittance),
+        1.0,
+        spec.exposure_s,
+        f64::from(cam.pixel_pitch_um),
+    );
+    let black = model.expected_mean_dn(0.0, spec.exposure_s, gain_db);
+    let per_photon = (model.expected_mean_dn(1000.0, spec.exposure_s, gain_db) - black) / 1000.0;
+    let white = *PATCH_REFLECTANCES.last().unwrap_or(&0.9);
+    let photons = (WHITE_FRACTION * model.max_dn() - black).max(1.0) / per_photon;
+    let lum = photons / p1;
+    layout.sensor = resolved.sensor.model.clone();
+    layout.bits = model.adc_bits;
+    layout.distance_m = distance_m;
+    layout.chart_width_m = distance_m * f64::from(cam.sensor_width_mm()) / f64::from(cam.focal_mm);
+    layout.chart_height_m = distance_m * f64::from(cam.sensor_height_mm()) / f64::from(cam.focal_mm);
+    layout.illuminance_lux = lum * std::f64::consts::PI / white;
+    layout.exposure_s = spec.exposure_s;
+    layout.gain_db = gain_db;
+    layout.black_level_dn = black;
+    layout
+}
+
+/// Mean photons per pixel of the chart (before any image effect and the sensor).
+#[must_use]
+pub fn photon_image(resolved: &ResolvedCamera, layout: &Layout) -> Vec<f32> {
+    let cam = chart_camera(resolved);
+    let lum: Vec<f32> = layout
+        .reflectance_image()
+        .iter()
+        .map(|rho| (layout.illuminance_lux * rho / std::f64::consts::PI) as f32)
+        .collect();
+    scene_gen_camera::radiometry::photon_image(&cam, &lum, resolved.spec.lens_transmittance, layout.exposure_s)
+}
+
+/// One noisy chart frame, DN.
+#[must_use]
+pub fn simulate(model: &SensorModel, layout: &Layout, photons: &[f32], frame_seed: u64) -> Vec<u16> {
+    model.simulate(photons, layout.width_px, layout.height_px, layout.exposure_s, layout.gain_db, frame_seed)
+}
+
+/// The noiseless chart, DN (expected value of a typical pixel, not rounded).
+#[must_use]
+pub fn expected(model: &SensorModel, layout: &Layout, photons: &[f32]) -> Vec<f64> {
+    photons.iter().map(|&p| model.expected_mean_dn(f64::from(p), layout.exposure_s, layout.gain_db)).collect()
+}
+
+/// Scale of the noiseless chart PNG: it holds `round(MEAN_PNG_SCALE * DN)` so that the
+/// sub-DN shading survives (at the binned resolution the darkest patches' noise is under 1 DN).
+pub const MEAN_PNG_SCALE: f64 = 16.0;

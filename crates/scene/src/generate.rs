@@ -1,0 +1,53 @@
+//! The generator: seed and libraries in, [`Scene`] out.
+//!
+//! Stages run in a fixed order, each drawing from its own seeded stream (see [`scene_gen_core::rng`]):
+//! floorplan, structure (floors, ceilings, walls, windows, thresholds), furniture placement,
+//! decor (rugs, pictures), lights.
+
+use crate::config::{ConfigError, GeneratorConfig};
+use crate::floorplan::{self, FloorplanError};
+use crate::library::Library;
+use crate::materials::MaterialCatalog;
+use crate::placement::{self, PlacementError};
+use crate::scene::{Geometry, Scene};
+use crate::{decor, lights, structure};
+
+/// Why a scene could not be generated.
+#[derive(Debug, thiserror::Error)]
+pub enum GenerateError {
+    #[error(transparent)]
+    Config(#[from] ConfigError),
+    #[error("floorplan: {0}")]
+    Floorplan(#[from] FloorplanError),
+    #[error("structure: {0}")]
+    Structure(#[from] structure::StructureError),
+    #[error("furniture placement: {0}")]
+    Placement(#[from] PlacementError),
+}
+
+/// Generates the house for `config` from `library`.
+pub fn generate(config: &GeneratorConfig, library: &Library) -> Result<Scene, GenerateError> {
+    config.validate()?;
+    let mut geometry = Geometry::default();
+    let mut materials = MaterialCatalog::new(config.seed);
+    let plan = floorplan::generate(config, &library.rooms)?;
+    let thresholds = structure::build(config, &plan, &library.rooms, &mut materials, &mut geometry)?;
+    let first_object_instance = thresholds.iter().map(|t| t.instance_id).max().unwrap_or(0) + 1;
+    let objects =
+        placement::place(config, &plan, &thresholds, library, first_object_instance, &mut materials, &mut geometry)?;
+    decor::build(config, &plan, &objects, &mut materials, &mut geometry);
+    let lights = lights::build(config, &plan, &objects);
+    Ok(Scene {
+        seed: config.seed,
+        envelope: config.envelope,
+        wall_thickness_m: config.wall_thickness_m,
+        rooms: plan.rooms,
+        walls: plan.walls,
+        doors: plan.doors,
+        windows: plan.windows,
+        thresholds,
+        objects,
+        lights,
+        geometry,
+    })
+}
