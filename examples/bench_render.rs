@@ -47,8 +47,8 @@ use std::time::Instant;
 use glam::Vec3;
 use rayon::prelude::*;
 use scene_gen::camera_spec::{CameraSpec, ResolvedCamera};
+use scene_gen::capture::light_scales;
 use scene_gen::config::GeneratorConfig;
-use scene_gen::evaluate::scenario_light_scales;
 use scene_gen::generate::generate;
 use scene_gen::library::Library;
 use scene_gen::radiometry::capture;
@@ -357,17 +357,18 @@ fn frame_pair(setup: &Setup, renderer: &Renderer<'_>, w: u32, h: u32) -> BoxResu
     let camera = setup.camera(w, h);
     let resolved = setup.resolved_at(w, h);
     let start = Instant::now();
-    let scales = scenario_light_scales(renderer, SEED, &[LightGroup::Day, LightGroup::Night])?;
+    let scales = light_scales(renderer, SEED, &[LightGroup::Day, LightGroup::Night])?;
     let scale_s = start.elapsed().as_secs_f64();
     let cpu0 = process_cpu_s();
     let start = Instant::now();
     let frame = renderer.render(&camera)?;
     let render_s = start.elapsed().as_secs_f64();
     let start = Instant::now();
-    for &(group, _, scale, _) in &scales {
-        let (radiance, gain_db) = match group {
-            LightGroup::Day => (frame.mix(scale, 0.0), resolved.spec.gain_day_db),
-            LightGroup::Night => (frame.mix(0.0, scale), resolved.spec.gain_night_db),
+    for light in &scales {
+        let radiance = light.radiance(&frame);
+        let gain_db = match light.group {
+            LightGroup::Day => resolved.spec.gain_day_db,
+            LightGroup::Night => resolved.spec.gain_night_db,
         };
         let cap = capture(&resolved, &camera, &radiance, gain_db, SEED, 1);
         std::hint::black_box(cap.mean_variance());

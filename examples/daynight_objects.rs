@@ -25,6 +25,7 @@
 use std::collections::BTreeSet;
 
 use scene_gen::camera_spec::{CameraSpec, NoiseKind};
+use scene_gen::capture::light_scales;
 use scene_gen::detection::coco_eval::{CocoCategory, CocoGroundTruth, CocoImage, DetectionRecord, evaluate};
 use scene_gen::detection::detectability::object_cnr;
 use scene_gen::detection::ground_truth::to_annotations;
@@ -32,7 +33,7 @@ use scene_gen::detection::output_noise::output_noise_by_level;
 use scene_gen::detection::{
     DetectabilityModel, Detector, DetectorInput, GroundTruthConfig, GtObject, NoiseSource, frame_ground_truth,
 };
-use scene_gen::evaluate::{capture_seed, detector_seed, eval_render_settings, scenario_light_scales};
+use scene_gen::evaluate::{capture_seed, detector_seed, eval_render_settings};
 use scene_gen::house::{embedded_library, walked_house};
 use scene_gen::isp::{Isp, OutputRule, to_8bit};
 use scene_gen::optics::{OpticsInput, agent_velocity};
@@ -97,11 +98,11 @@ fn main() {
             settings.indirect_rays = b;
         }
         let renderer = Renderer::new(&walked.scene, settings);
-        let scales = scenario_light_scales(&renderer, seed, &[LightGroup::Day, LightGroup::Night]).expect("lights");
+        let scales = light_scales(&renderer, seed, &[LightGroup::Day, LightGroup::Night]).expect("lights");
         let isps: Vec<Isp> = scales
             .iter()
             .enumerate()
-            .map(|(s, &(_, _, _, lux))| Isp::for_scenario(&resolved, gains[s], f64::from(lux), channels))
+            .map(|(s, light)| Isp::for_scenario(&resolved, gains[s], f64::from(light.target_lux), channels))
             .collect();
         let tables: Vec<Option<Vec<f64>>> = isps
             .iter()
@@ -119,8 +120,8 @@ fn main() {
             let gt = frame_ground_truth(&frame, &walked.scene, &cam, &GroundTruthConfig::default());
             let mut rows = vec![[Figures::default(); 2]; gt.len()];
             let mut zeros = [0.0; 2];
-            for (s, &(_, _, scale, _)) in scales.iter().enumerate() {
-                let radiance = if s == 0 { frame.mix(scale, 0.0) } else { frame.mix(0.0, scale) };
+            for (s, light) in scales.iter().enumerate() {
+                let radiance = light.radiance(&frame);
                 let frame_seed = capture_seed(seed, i, names[s]);
                 let optics = || OpticsInput {
                     depth_m: &frame.depth_m,

@@ -17,7 +17,8 @@
 use std::time::Instant;
 
 use scene_gen::camera_spec::CameraSpec;
-use scene_gen::evaluate::{eval_render_settings, scenario_light_scales};
+use scene_gen::capture::light_scales;
+use scene_gen::evaluate::eval_render_settings;
 use scene_gen::house::{embedded_library, walked_house};
 use scene_gen::isp::{Isp, OutputRule, Scenario, capture_8bit, to_8bit};
 use scene_gen::optics::{OpticsInput, agent_velocity};
@@ -92,15 +93,18 @@ fn stage_case(reps: u32, chain: bool) {
     let params = TrajectoryParams { height_m: spec.height_m, ..TrajectoryParams::default() };
     let house = walked_house(&library, 0, &params).expect("house 0");
     let renderer = Renderer::new(&house.scene, eval_render_settings());
-    let scales = scenario_light_scales(&renderer, 0, &[LightGroup::Day, LightGroup::Night]).expect("light scales");
+    let scales = light_scales(&renderer, 0, &[LightGroup::Day, LightGroup::Night]).expect("light scales");
     let pose = house.walk.poses[house.walk.poses.len() / 3];
     let camera = resolved.camera_at(&pose);
     let (t0, cpu0) = (Instant::now(), cpu_s());
     let frame = renderer.render(&camera).expect("renders");
     let (render_s, render_cpu) = (t0.elapsed().as_secs_f64(), cpu_s() - cpu0);
     let gains = [spec.gain_day_db, spec.gain_night_db];
-    let isps: Vec<Isp> =
-        scales.iter().enumerate().map(|(s, sc)| Isp::for_scenario(&resolved, gains[s], f64::from(sc.3), 1)).collect();
+    let isps: Vec<Isp> = scales
+        .iter()
+        .enumerate()
+        .map(|(s, sc)| Isp::for_scenario(&resolved, gains[s], f64::from(sc.target_lux), 1))
+        .collect();
     let optics = OpticsInput {
         depth_m: &frame.depth_m,
         velocity_m_s: agent_velocity(&spec, pose.yaw_deg, params.speed_m_per_s),
@@ -131,7 +135,7 @@ fn stage_case(reps: u32, chain: bool) {
     let (mut checksum, mut means) = (0u64, [0.0f64; 2]);
     for rep in 0..if chain { reps } else { 0 } {
         for (s, sc) in scales.iter().enumerate() {
-            let radiance = if s == 0 { frame.mix(sc.2, 0.0) } else { frame.mix(0.0, sc.2) };
+            let radiance = sc.radiance(&frame);
             let frame_seed = 1000 * u64::from(rep) + s as u64;
             let cap = capture_frame(&resolved, &camera, &radiance, Some(optics), gains[s], 0, frame_seed);
             let grey = to_8bit(&cap, OutputRule::Isp, &isps[s]);
@@ -151,8 +155,8 @@ fn stage_case(reps: u32, chain: bool) {
             .iter()
             .enumerate()
             .map(|(s, sc)| Scenario {
-                day_weight: if s == 0 { sc.2 } else { 0.0 },
-                night_weight: if s == 0 { 0.0 } else { sc.2 },
+                day_weight: if s == 0 { sc.scale } else { 0.0 },
+                night_weight: if s == 0 { 0.0 } else { sc.scale },
                 gain_db: gains[s],
                 frame_seed: 1000 * u64::from(rep) + s as u64,
                 isp: &isps[s],

@@ -34,17 +34,16 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, anyhow};
 use clap::{Args, ValueEnum};
 use scene_gen::camera_spec::{CameraSpec, ResolvedCamera};
+use scene_gen::capture::{Capture, Scenario};
 use scene_gen::config::GeneratorConfig;
 use scene_gen::dataset::png::{capture_png, depth_png, instances_png};
-use scene_gen::evaluate::scenario_light_scales;
 use scene_gen::export::write_atomic;
 use scene_gen::generate::generate;
 use scene_gen::library::Library;
 use scene_gen::lights::TARGET_PLANE_M;
 use scene_gen::manifest::Manifest;
-use scene_gen::optics::{OpticsInput, agent_velocity};
-use scene_gen::radiometry::{SensorImage, capture_frame};
-use scene_gen::render::{RenderSettings, Renderer};
+use scene_gen::radiometry::SensorImage;
+use scene_gen::render::RenderSettings;
 use scene_gen::scene::{LightGroup, MANIFEST_SCHEMA, Scene};
 use scene_gen::sensor::Catalog;
 use scene_gen::trajectory::{self, Pose, TrajectoryParams};
@@ -204,33 +203,27 @@ pub fn run(args: &RenderArgs) -> Result<(), CliError> {
         Quality::Standard => RenderSettings::standard(),
         Quality::High => RenderSettings::high(),
     };
-    let renderer = Renderer::new(&scene, settings);
     let groups: Vec<LightGroup> = match args.lighting {
         Lighting::Day => vec![LightGroup::Day],
         Lighting::Night => vec![LightGroup::Night],
         Lighting::Both => vec![LightGroup::Day, LightGroup::Night],
     };
-    // (group, nominal lux, scale, target lux), shared with the evaluator.
-    let scales = scenario_light_scales(&renderer, scene.seed, &groups).map_err(failure)?;
+    let noise_label = format!("{}/", scene.seed);
+    let capture =
+        Capture::new(&scene, &resolved, &groups, settings, params.speed_m_per_s, noise_label).map_err(failure)?;
 
     let mut files: Vec<(String, Vec<u8>)> = Vec::new();
     for k in 0..args.frames {
         let pose: Pose = walk.poses[(k as usize).min(walk.poses.len() - 1)];
-        let camera = resolved.camera_at(&pose);
-        let frame = renderer.render(&camera).map_err(bad_input)?;
+        let camera = capture.pinhole(&pose);
+        let frame = capture.renderer().render(&camera).map_err(bad_input)?;
         let stem = format!("frame_{k:04}");
-        for &(g, nominal, scale, target) in &scales {
-            let name = if g == LightGroup::Day { "day" } else { "night" };
-            let radiance = if g == LightGroup::Day { frame.mix(scale, 0.0) } else { frame.mix(0.0, scale) };
-            let gain_db = if g == LightGroup::Day { spec.gain_day_db } else { spec.gain_night_db };
-            let pattern_seed = scene.seed;
-            let frame_seed = scene_gen::rng::fnv1a64(format!("{}/{k}/{name}", scene.seed).as_bytes());
-            let velocity_m_s = agent_velocity(&spec, pose.yaw_deg, params.speed_m_per_s);
-            let optics = Some(OpticsInput { depth_m: &frame.depth_m, velocity_m_s });
-            let cap = capture_frame(&resolved, &camera, &radiance, optics, gain_db, pattern_seed, frame_seed);
-            let (png, depth) = capture_png(&cap);
-            let (mean_dn, variance_dn2) = cap.mean_variance();
-            let sidecar = sidecar(&resolved, &scene, k, name, &cap, depth, &pose, gain_db, target, nominal, scale);
+        for scenario in capture.scenarios() {
+            let name = scenario.light.name();
+            let image = capture.sensor_image(&frame, &camera, &pose, scenario, u64::from(k));
+            let (png, depth) = capture_png(&image);
+            let (mean_dn, variance_dn2) = image.mean_variance();
+            let sidecar = sidecar(&resolved, &scene, k, scenario, &image, depth, &pose);
             let sidecar = Sidecar { mean_dn, variance_dn2, ..sidecar };
             let mut json = serde_json::to_string_pretty(&sidecar).map_err(failure)?;
             json.push('\n');
@@ -251,33 +244,33 @@ pub fn run(args: &RenderArgs) -> Result<(), CliError> {
     for (name, bytes) in &files {
         write_atomic(&args.out.join(name), bytes).map_err(|e| failure(anyhow!(e)))?;
     }
-    for &(g, nominal, scale, target) in &scales {
-        println!("{g:?}: {nominal:.3} lux nominal on the {TARGET_PLANE_M} m plane, scaled x{scale:.4} to {target} lux");
+    for s in capture.scenarios() {
+        let l = &s.light;
+        println!(
+            "{:?}: {:.3} lux nominal on the {TARGET_PLANE_M} m plane, scaled x{:.4} to {} lux",
+            l.group, l.nominal_lux, l.scale, l.target_lux
+        );
     }
     println!("wrote {} files to {}", files.len(), args.out.display());
     Ok(())
 }
 
-#[allow(clippy::too_many_arguments)]
 fn sidecar<'a>(
     resolved: &'a ResolvedCamera,
     scene: &Scene,
     k: u32,
-    name: &'a str,
+    scenario: &Scenario,
     cap: &SensorImage,
     png_bit_depth: u8,
     pose: &Pose,
-    gain_db: f64,
-    target: f32,
-    nominal: f32,
-    scale: f32,
 ) -> Sidecar<'a> {
+    let light = &scenario.light;
     let spec = &resolved.spec;
     let f = resolved.focal_px();
     Sidecar {
         scene_seed: scene.seed,
         frame: k,
-        lighting: name,
+        lighting: light.name(),
         sensor: &resolved.sensor.model,
         width: cap.width,
         height: cap.height,
@@ -302,11 +295,11 @@ fn sidecar<'a>(
             time_s: pose.time_s,
         },
         exposure_s: spec.exposure_s,
-        gain_db,
+        gain_db: scenario.gain_db,
         noise: spec.noise,
-        plane_lux: target,
-        plane_lux_nominal: nominal,
-        light_scale: scale,
+        plane_lux: light.target_lux,
+        plane_lux_nominal: light.nominal_lux,
+        light_scale: light.scale,
         mean_dn: 0.0,
         variance_dn2: 0.0,
     }

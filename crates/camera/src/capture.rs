@@ -39,7 +39,7 @@ pub enum CaptureError {
         #[source]
         source: RenderError,
     },
-    #[error("the {group:?} lights give no light on the {TARGET_PLANE_M} m plane")]
+    #[error("{group:?} lights give no light on the {TARGET_PLANE_M} m plane")]
     NoLight { group: LightGroup },
 }
 

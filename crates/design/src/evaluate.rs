@@ -1,133 +1,69 @@
-//! The evaluator: perception scores of one camera candidate, TaCOS style
-//! (reference/tacos_facts.md), over seeded houses.
+//! The evaluator: the task scores of one camera candidate over seeded houses, as the reference
+//! system scores them (docs/REFERENCE.md, "Tasks and score").
 //!
-//! Per seed the house is generated with the default configuration, the agent's walk is planned
-//! at the spec's mounting height and at [`EvalConfig::speed_m_s`] ([`scene_gen_scene::trajectory`]; poses
-//! every 0.25 m), and frames are rendered at [`EvalConfig::frames_per_scene`] *anchor* poses
-//! evenly spaced along the walk. Each anchor is rendered together with its successor pose
-//! (0.25 m later) so ORB has a genuine consecutive pair to match: anchors alone are metres apart
-//! and would give zero inliers whatever the camera. The poses in the 0.5 s window before every
-//! threshold crossing are rendered as well, for threshold visibility only (the same window test
-//! as the score, so no window pose is left out): ids only, traced over the pixels each
-//! threshold's box can cover ([`scene_gen_render::Camera::box_pixels`]), which counts exactly the
-//! pixels a whole frame would.
+//! An evaluation is a short sequence of steps, each a function below:
 //!
-//! ONE trace per pose serves day and night: the light groups are scaled so the mean
-//! illuminance on the 0.75 m plane is 20 lux by day and 2 lux by night, exactly as
-//! `scene-gen render` does ([`scenario_light_scales`]). Per scenario (day at the spec's
-//! `gain_day_db`, night at `gain_night_db`) the noisy sensor image becomes the 8-bit grey image
-//! ORB and the detector see by [`EvalConfig::output`]: by default a fixed ISP (black level, a
-//! digital gain fixed per scenario that puts an 18 % grey at the scenario's lux at the same
-//! output level by day and night, sRGB curve; [`scene_gen_camera::isp`]), or the old top 8 bits of the ADC.
-//!
-//! # Agent speed and the threshold window
-//!
-//! TaCOS does not state its agent's speed; it is [`EvalConfig::speed_m_s`] (`--speed-m-s`),
-//! 1.0 m/s by default ([`scene_gen_scene::trajectory::DEFAULT_SPEED_M_PER_S`] says why), so the 0.5 s
-//! window is 0.5 m of walk. The agent *crosses* a threshold when its body (a disc of the walk's
-//! radius, 0.25 m) first touches the sill's footprint ([`EvalConfig::crossing_at_contact`]; the
-//! time is interpolated between poses): an obstacle must be seen before the body reaches it, not
-//! before the camera centre passes the door. With the old 0.5 m/s and the crossing at the first
-//! pose beyond the door plane, the window was the last 0.25 m before the plane, where the sill is
-//! under the lower field edge of any camera not pointed steeply down (IMX174 4 mm at -10 deg and
-//! 0.8 m sees the floor from 0.63 m ahead), and the default camera scored 0.
-//!
-//! Measured (`scene-gen evaluate --camera C --seeds 0..2`, 25 anchors, 320 px, houses 0 and 1,
-//! 20 crossings), threshold accuracy:
-//!
-//! | camera | before (0.5 m/s, door plane) | now (1.0 m/s, contact) |
-//! | --- | --- | --- |
-//! | IMX174, 4 mm, pitch -10 deg (default) | 0.00 (0/20) | 0.80 (16/20) |
-//! | IMX172, 20 mm, pitch +30 deg (up, long lens, small sensor) | 0.00 | 0.00 (0/20) |
+//! 1. **Per house** (`Tally::add_house`): the house of the seed with the default
+//!    configuration, the agent's walk at the spec's mounting height and at
+//!    [`EvalConfig::speed_m_s`] (poses every 0.25 m), and a [`Capture`] of the camera in it
+//!    by day and by night.
+//! 2. **Which poses** (`plan_poses`): [`EvalConfig::frames_per_scene`] *anchor* poses evenly
+//!    spread along the walk, each with its successor 0.25 m later (so ORB matches a genuine
+//!    consecutive pair), and every pose in the threshold window before a door crossing.
+//! 3. **Render and capture** (`render_pose`, poses in parallel): one trace per pose serves
+//!    both scenarios (the lights scaled to 20 lux by day and 2 lux by night on the 0.75 m
+//!    plane); per scenario the sensor image goes through the fixed ISP
+//!    ([`EvalConfig::output`], `scene_gen_camera::isp`) to the 8-bit image ORB and the
+//!    detector see. Window poses trace only ids, over the pixels each threshold's box can
+//!    cover, which counts exactly the pixels a whole frame would.
+//! 4. **Score** (`Tally::add_thresholds`, `Tally::add_orb`, `Tally::add_detections`),
+//!    then, once over every house, the external detector if one is set
+//!    (`Tally::run_external_detector`) and the scores and fitness per scenario
+//!    (`Tally::score`).
 //!
 //! # Scores per scenario
 //!
-//! * threshold accuracy ([`thresholds::threshold_score`]); the visible-pixel floor is
-//!   [`thresholds::DEFAULT_MIN_VISIBLE_PX`] at 640 x 480, scaled with the pixel count so tiny
-//!   evaluation images are not penalised for their size. It is geometric, so it is the same in
-//!   both scenarios;
-//! * AP@0.5 of the detector against the instance buffer's ground truth ([`frame_ground_truth`]),
-//!   [`coco_eval::evaluate`] over every anchor of every seed (an AP of -1, no ground truth at
-//!   all, counts as 0). The detector is the built-in [`DetectabilityModel`] or an external
-//!   program ([`EvalConfig::detector`], `--detector "CMD ARGS"`) run once per evaluation under
-//!   the plug-in protocol of [`scene_gen_perception::detection`] on the anchors' 8-bit PNGs written to a
-//!   temporary folder, with a COCO ground-truth file beside them (`{gt}` in the command is its
-//!   path); its answers are scored by the same COCO code;
-//! * ORB (2000 features, cross-checked matches, fundamental RANSAC at 3 px) on each
-//!   (anchor, successor) pair: mean inliers per pair, and the mean inlier ratio
-//!   `inliers / (inliers + keypoints)`, keypoints of the anchor frame (tacos_facts.md);
-//! * usable images: anchors whose 8-bit image is neither nearly black nor saturated (mean in
-//!   [[`USABLE_MIN_MEAN`], [`USABLE_MAX_MEAN`]] and fewer than [`USABLE_MAX_CLIPPED_FRACTION`] of
-//!   the pixels at 0 or 255) and that hold at least one counted ground-truth object. TaCOS
-//!   scores a candidate with fewer than 100 usable images on the threshold term only; here the
-//!   floor is [`EvalConfig::min_usable_images`] (`--min-usable`), by default half the
-//!   scenario's anchors ([`DEFAULT_MIN_USABLE_FRACTION`]), because an absolute 100 against
-//!   25 anchors x 2 houses would zero every candidate;
-//! * fitness = threshold accuracy + AP@0.5 + 0.0025 x mean inliers + 0.5 x inlier ratio
-//!   (weights in [`FitnessWeights`]), or the threshold term alone below the usable floor.
+//! * **Threshold accuracy** ([`thresholds::threshold_score`]): a threshold counts as seen when
+//!   enough of it was on screen within 0.5 s before the agent crossed it. The agent crosses
+//!   when its body (a disc of the walk's radius) first touches the sill's footprint
+//!   ([`EvalConfig::crossing_at_contact`], interpolated between poses): an obstacle must be
+//!   seen before the body reaches it. At the default 1.0 m/s the window is 0.5 m of walk. The
+//!   visible-pixel floor is [`thresholds::DEFAULT_MIN_VISIBLE_PX`] at 640 x 480, scaled with
+//!   the pixel count. It is geometric, so the same in both scenarios.
+//! * **AP@0.5** of the detector against the instance buffer's ground truth
+//!   ([`frame_ground_truth`]), [`coco_eval::evaluate`] over every anchor of every seed (an AP
+//!   of -1, no ground truth at all, counts as 0). The detector is the built-in
+//!   [`DetectabilityModel`], told the camera's noise at each output level
+//!   (`detection::output_noise`) and drawing with one seed per pose for both scenarios, or an
+//!   external program ([`EvalConfig::detector`], `--detector "CMD ARGS"`) run once per
+//!   evaluation under the plug-in protocol of `scene_gen_perception::detection`, on the
+//!   anchors' 8-bit PNGs with a COCO ground-truth file beside them (`{gt}` in the command).
+//! * **ORB** (2000 features, cross-checked matches, fundamental RANSAC at 3 px) on each
+//!   (anchor, successor) pair: mean inliers per pair and the mean inlier ratio
+//!   `inliers / (inliers + keypoints)`, keypoints of the anchor frame.
+//! * **Usable images**: anchors whose 8-bit image is neither nearly black nor saturated (mean
+//!   in [[`USABLE_MIN_MEAN`], [`USABLE_MAX_MEAN`]], fewer than
+//!   [`USABLE_MAX_CLIPPED_FRACTION`] of the pixels at 0 or 255) and that hold at least one
+//!   counted object. A scenario with fewer than [`EvalConfig::min_usable_images`] (by default
+//!   half its anchors, [`DEFAULT_MIN_USABLE_FRACTION`]) is scored on the threshold term only.
+//! * **Fitness** = threshold accuracy + AP@0.5 + 0.0025 x mean inliers + 0.5 x inlier ratio
+//!   ([`FitnessWeights`]).
 //!
-//! # Day versus night (issue 5: night should score no higher than day)
+//! # Known limits
 //!
-//! * **Render speckle (fixed).** The light-culling roulette counted the sun's unshadowed
-//!   illuminance in the day group's total, so behind walls and in corners the window lights were
-//!   traced at random with weights up to 10x: salt-and-pepper by day, taken by ORB for corners
-//!   and by the detector for noise. The sun is now always traced and left out of that total
-//!   ([`scene_gen_render::LightSet::direct`]; docs/BENCHMARKS.md, "Speckle in preview day frames").
-//! * **Black day frames (open).** [`RenderSettings::preview`] traces no bounce light, so by day
-//!   every surface neither the sun nor a window reaches directly (window-less rooms, the hall,
-//!   shadowed walls) is exactly black, while at night every room has its ceiling light. A
-//!   camera with a narrow view often sees only such a surface, and its day frame has most
-//!   pixels at 0: not usable ([`USABLE_MAX_CLIPPED_FRACTION`]). Saturation adds little: no day
-//!   frame of these runs had more than 37 % of its pixels at 255, against up to 97 % at 0
-//!   (the ADC clips on sun patches, little else). Measured on the default optimizer run
-//!   (`--seeds 0..3`, 25 anchors, 320 px, 75 anchors per scenario, usable floor 38; day /
-//!   night fitness; usable images in brackets):
+//! The evaluator's render ([`eval_render_settings`]) traces direct light only: by day, surfaces
+//! neither the sun nor a window reaches are black, so a narrow camera can lose usable day
+//! frames that one bounce ray (`--bounce-rays 1`, about twice the time) restores. The
+//! day-versus-night figures are in docs/BENCHMARKS.md ("Detection: day versus night").
 //!
-//!   | candidate | sun in the cull total | sun traced apart (now) | and one bounce ray |
-//!   | --- | --- | --- | --- |
-//!   | MT9V032, 16.09 mm, -8.46 deg | 0 (25) / 1.27 (43) | 0 (34) / 1.27 (43) | 1.82 (42) / 1.54 (44) |
-//!   | IMX250, 10.47 mm, -1.53 deg | 0 (37) / 1.65 (57) | 2.40 (50) / 1.66 (57) | 2.28 (55) / 1.98 (57) |
+//! # Determinism and caching
 //!
-//!   One bounce ray per pixel (`indirect_rays: 1`, `scene-gen evaluate --bounce-rays 1`) costs 1.8x to 1.9x the CPU time of a
-//!   candidate (MT9V032: 29.6 to 53.1 s user time). Not an exposure problem: an auto-exposure
-//!   cannot brighten radiance that is exactly zero.
-//! * **Detector noise (fixed).** The built-in [`DetectabilityModel`] divided contrast by a
-//!   noise measured on the image, and by day that measured the renderer's one-sample
-//!   area-light noise on window-lit surfaces, not the sensor's: 8.1 DN by day against 4.1 at
-//!   night, where the sensor's own share (noisy minus noiseless capture) is 0.9 and 4.6 DN.
-//!   Day scored as the noisier scenario: AP@0.5 rose with noise by day (IMX172 on house 0,
-//!   0.6 at 1/30 s, 1.0 at 1 ms) and the default camera scored day 0.74 / night 0.97.
-//!   The detector is now told the camera's noise at each output level
-//!   ([`scene_gen_perception::detection::output_noise`], from the sensor model through the ISP), its contrast
-//!   is corrected for what pixel noise adds to it, and day and night of a pose share the
-//!   detector's draws (common random numbers). Day AP now falls with noise (1.0 to 0.4 on
-//!   that case).
-//! * **Lighting contrast (open, not the camera).** AP@0.5 of the default camera
-//!   (`scene-gen evaluate --camera IMX174,focal_mm=4,pitch_deg=-10 --seeds 0..2`, 25 anchors,
-//!   320 px): day 0.895 / night 0.944 (was 0.739 / 0.972); houses 2 and 3: 0.886 / 0.905.
-//!   Over the 120 objects of houses 0 and 1 the mean detection probability is 0.90 by day
-//!   and 0.94 at night (0.95 / 0.94 without the contrast correction, the day frames' sampling
-//!   noise making weak contrasts look stronger); 12 objects lose more than 0.1 by day and 11
-//!   gain. The losers have a mean contrast of 1.7 DN against their surroundings by day and
-//!   19.5 DN at night: window light from the side, without bounce, leaves them at the level
-//!   of what is behind them, the ceiling lamps do not. That is the scene's lighting (and the
-//!   preview render), not the camera; and AP@0.5 averages over classes, so a few objects of
-//!   a rare class swing it. Neither a cleaner render (8 x 8 area-light samples, no culling:
-//!   0.903 / 0.949) nor one bounce ray (0.933 / 0.965) reverses it
-//!   (`examples/daynight_objects.rs` prints the per-object figures). Threshold accuracy is
-//!   geometric (equal), and ORB inliers are lower at night.
-//!
-//! Frames are rendered and scored in parallel (rayon); every random draw is seeded by the
-//! seed, pose index and scenario (the built-in detector's by seed and pose only, shared by
-//! both scenarios), and results are gathered in pose order, so the output does not
-//! depend on the thread count. Results are cached per process, keyed by the normalised spec
-//! (its JSON), the seeds and every configuration field (speed, output rule, usable floor,
-//! detector, render settings). [`Evaluation::timing_s`] says where the time went (not
-//! deterministic; the CLI prints it with `--timing`). Its `sensor` figure is wall time on the
-//! pose's worker thread: the stage's rows are nested rayon tasks, and a thread waiting for them
-//! may run other poses' rendering meanwhile, so it overstates the stage (docs/BENCHMARKS.md,
-//! "The evaluator's sensor + ISP stage", compares it with a profile). Both scenarios' 8-bit
-//! images come from one fused pass over the frame ([`scene_gen_camera::isp::capture_8bit`]).
+//! Every random draw is seeded by the seed, pose index and scenario, and results are gathered
+//! in pose order, so the output does not depend on the thread count. Results are cached per
+//! process, keyed by the normalised spec, the seeds and every configuration field.
+//! [`Evaluation::timing_s`] says where the time went (not deterministic; the CLI prints it with
+//! `--timing`); its `sensor` figure is wall time on the pose's worker thread, which may run other
+//! poses' rendering while it waits for the stage's nested row tasks, so it overstates the stage.
 
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::path::{Path, PathBuf};
@@ -138,9 +74,9 @@ use std::time::Instant;
 use rayon::prelude::*;
 use serde::Serialize;
 
-use scene_gen_camera::camera_spec::{CameraSpec, NoiseKind, ResolvedCamera, SpecError};
-use scene_gen_camera::isp::{Isp, OutputRule, Scenario, capture_8bit};
-use scene_gen_camera::optics::{OpticsInput, agent_velocity};
+use scene_gen_camera::camera_spec::{CameraSpec, ResolvedCamera, SpecError};
+use scene_gen_camera::capture::{Capture, CaptureError, scenario_name};
+use scene_gen_camera::isp::OutputRule;
 use scene_gen_camera::sensor::Catalog;
 use scene_gen_perception::detection::coco_eval::{self, CocoCategory, CocoGroundTruth, CocoImage, DetectionRecord};
 use scene_gen_perception::detection::ground_truth::to_annotations;
@@ -148,14 +84,15 @@ use scene_gen_perception::detection::output_noise::output_noise_by_level;
 use scene_gen_perception::detection::plugin::{self, PluginError, PluginRequest};
 use scene_gen_perception::detection::thresholds::{self, Crossing, FrameVisibility, ThresholdConfig};
 use scene_gen_perception::detection::{
-    DetectabilityModel, Detector, DetectorInput, GroundTruthConfig, NoiseSource, frame_ground_truth,
+    DetectabilityModel, Detection, Detector, DetectorInput, GroundTruthConfig, GtObject, NoiseSource,
+    frame_ground_truth,
 };
 use scene_gen_perception::orb::{FundamentalRansac, Orb, match_and_verify};
-use scene_gen_render::{Frame, RenderError, RenderSettings, Renderer, ShadingRate, measure_mean_illuminance};
+use scene_gen_render::{Frame, RenderError, RenderSettings, Renderer, ShadingRate};
 use scene_gen_scene::house::{HouseError, WalkedHouse, embedded_library, walked_house};
-use scene_gen_scene::lights::{DAY_TARGET_LUX, NIGHT_TARGET_LUX, TARGET_PLANE_M};
-use scene_gen_scene::scene::{LightGroup, ObjectClass, THRESHOLD_CLASS_ID, THRESHOLD_CLASS_NAME};
-use scene_gen_scene::trajectory::{self, TrajectoryParams};
+use scene_gen_scene::library::Library;
+use scene_gen_scene::scene::{LightGroup, ObjectClass, Scene, THRESHOLD_CLASS_ID, THRESHOLD_CLASS_NAME};
+use scene_gen_scene::trajectory::{self, Trajectory, TrajectoryParams};
 
 /// Default anchor frames per house: small, so a candidate evaluates in seconds.
 pub const DEFAULT_FRAMES_PER_SCENE: u32 = 25;
@@ -426,38 +363,14 @@ pub enum EvalError {
         #[source]
         source: RenderError,
     },
-    #[error("{group:?} lights give no light on the {TARGET_PLANE_M} m plane")]
-    NoLight { group: LightGroup },
+    #[error(transparent)]
+    Capture(#[from] CaptureError),
     #[error("COCO evaluation: {0}")]
     Coco(#[from] coco_eval::CocoError),
     #[error("external detector: {0}")]
     Plugin(#[from] PluginError),
     #[error("writing detector input {path}: {why}")]
     Io { path: String, why: String },
-}
-
-/// The light scale of each scenario: `(group, nominal lux, scale, target lux)`, the lights of
-/// `group` scaled so the mean illuminance on the 0.75 m plane is the TaCOS target (20 lux by
-/// day, 2 lux by night).
-///
-/// # Errors
-/// A render error of the probe, or [`EvalError::NoLight`] when a group gives no light.
-pub fn scenario_light_scales(
-    renderer: &Renderer<'_>,
-    seed: u64,
-    groups: &[LightGroup],
-) -> Result<Vec<(LightGroup, f32, f32, f32)>, EvalError> {
-    let mut out = Vec::new();
-    for &g in groups {
-        let target = if g == LightGroup::Day { DAY_TARGET_LUX } else { NIGHT_TARGET_LUX };
-        let nominal = measure_mean_illuminance(renderer, g, TARGET_PLANE_M)
-            .map_err(|source| EvalError::Render { seed, source })?;
-        if nominal <= 0.0 {
-            return Err(EvalError::NoLight { group: g });
-        }
-        out.push((g, nominal, target / nominal, target));
-    }
-    Ok(out)
 }
 
 static CACHE: OnceLock<Mutex<HashMap<String, Evaluation>>> = OnceLock::new();
@@ -538,7 +451,7 @@ fn prepare(spec: &CameraSpec, seeds: &[u64], config: &EvalConfig) -> Result<(Cam
 /// pose `pose_index`: going back from that pose over the poses whose centre lies within the
 /// walk's radius of the footprint, then interpolated linearly in distance between the last pose
 /// outside and the first inside (poses are 0.25 m apart).
-fn contact_time_s(walk: &trajectory::Trajectory, pose_index: usize, lo: glam::Vec2, hi: glam::Vec2) -> f64 {
+fn contact_time_s(walk: &Trajectory, pose_index: usize, lo: glam::Vec2, hi: glam::Vec2) -> f64 {
     let r = walk.radius_m;
     let dist = |k: usize| {
         let p = walk.poses[k].position.truncate();
@@ -611,6 +524,7 @@ fn image_usable(grey: &[u8]) -> bool {
 }
 
 /// What one rendered pose contributes.
+#[derive(Default)]
 struct PoseResult {
     /// Threshold instance id -> visible pixels.
     thresholds: Vec<(u32, u32)>,
@@ -618,8 +532,8 @@ struct PoseResult {
     /// Per scenario: 8-bit image (anchors and successors only).
     grey: Vec<Vec<u8>>,
     /// Ground truth and per-scenario built-in detections (anchors only).
-    gt: Option<Vec<scene_gen_perception::detection::GtObject>>,
-    detections: Vec<Vec<scene_gen_perception::detection::Detection>>,
+    gt: Option<Vec<GtObject>>,
+    detections: Vec<Vec<Detection>>,
     /// Per scenario: the anchor's image is usable.
     usable: Vec<bool>,
     /// Thread-seconds: render, sensor, detection.
@@ -673,270 +587,309 @@ fn secs(t: Instant) -> f64 {
     t.elapsed().as_secs_f64()
 }
 
-#[allow(clippy::too_many_lines)]
-fn compute(
-    spec: &CameraSpec,
-    resolved: &ResolvedCamera,
-    seeds: &[u64],
-    config: &EvalConfig,
-) -> Result<Evaluation, EvalError> {
-    COMPUTED.fetch_add(1, Ordering::SeqCst);
-    let wall = Instant::now();
-    let mut timing = Timing::default();
-    let library = embedded_library()?;
-    let gains = [spec.gain_day_db, spec.gain_night_db];
-    let names = ["day", "night"];
-    let mut accs = vec![Acc::default(), Acc::default()];
-    let categories: Vec<CocoCategory> = ObjectClass::ALL
-        .iter()
-        .map(|c| CocoCategory { id: c.class_id(), name: c.name().to_string() })
-        .chain(std::iter::once(CocoCategory { id: THRESHOLD_CLASS_ID, name: THRESHOLD_CLASS_NAME.to_string() }))
-        .collect();
-    for acc in &mut accs {
-        acc.gt.categories.clone_from(&categories);
-    }
-    let (w, h) = (resolved.width_px, resolved.height_px);
-    let min_px = ((f64::from(thresholds::DEFAULT_MIN_VISIBLE_PX) * f64::from(w) * f64::from(h) / VGA_PIXELS).round()
-        as u32)
-        .max(1);
-    let tcfg = ThresholdConfig { window_s: config.threshold_window_s, min_visible_px: min_px };
-    let model = DetectabilityModel::default();
-    let orb = Orb::with_features(ORB_FEATURES);
-    let scratch = config.detector.as_ref().map(|_| ScratchDir::new()).transpose()?;
-    let mut requests: Vec<(usize, PluginRequest)> = Vec::new();
-    let mut next_image_id = 1u64;
+/// The two scenarios, in the order of every per-scenario vector.
+const SCENARIO_GROUPS: [LightGroup; 2] = [LightGroup::Day, LightGroup::Night];
 
-    for &seed in seeds {
+/// What a pose is rendered for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+enum Role {
+    /// Threshold visibility only: ids over the thresholds' boxes.
+    Window,
+    /// The image of an anchor's successor, for its ORB pair.
+    Successor,
+    /// An anchor: image, ground truth, detections.
+    Anchor,
+}
+
+/// Which poses of a house's walk are rendered, and the threshold crossings they are scored on.
+struct PosePlan {
+    /// Anchor pose indices, ascending.
+    anchors: Vec<usize>,
+    /// Every pose to render with its role, ascending by pose.
+    jobs: Vec<(usize, Role)>,
+    crossings: Vec<Crossing>,
+}
+
+/// The anchors ([`EvalConfig::frames_per_scene`] poses evenly spread), their successors, and
+/// every pose in the threshold window before a crossing (the same test as
+/// [`thresholds::threshold_score`], on the same f64 times, so no window pose is left out).
+fn plan_poses(walk: &Trajectory, scene: &Scene, config: &EvalConfig) -> PosePlan {
+    let n = walk.poses.len();
+    let k = (config.frames_per_scene as usize).min(n);
+    let anchors: Vec<usize> = if k <= 1 {
+        vec![0]
+    } else {
+        (0..k)
+            .map(|i| ((i * (n - 1)) as f64 / (k - 1) as f64).round() as usize)
+            .collect::<BTreeSet<_>>()
+            .into_iter()
+            .collect()
+    };
+    let mut roles: BTreeMap<usize, Role> = BTreeMap::new();
+    for &a in &anchors {
+        roles.insert(a, Role::Anchor);
+        if a + 1 < n {
+            let r = roles.entry(a + 1).or_insert(Role::Successor);
+            *r = (*r).max(Role::Successor);
+        }
+    }
+    let crossings: Vec<Crossing> = walk
+        .crossings
+        .iter()
+        .filter_map(|c| {
+            scene.thresholds.get(c.threshold_id as usize).map(|t| Crossing {
+                instance_id: t.instance_id,
+                time_s: if config.crossing_at_contact {
+                    contact_time_s(walk, c.pose_index, t.min.truncate(), t.max.truncate())
+                } else {
+                    f64::from(c.time_s)
+                },
+            })
+        })
+        .collect();
+    for c in &crossings {
+        for (i, p) in walk.poses.iter().enumerate() {
+            let pt = f64::from(p.time_s);
+            if pt <= c.time_s && pt >= c.time_s - config.threshold_window_s {
+                roles.entry(i).or_insert(Role::Window);
+            }
+        }
+    }
+    PosePlan { anchors, jobs: roles.into_iter().collect(), crossings }
+}
+
+/// What stays the same over every pose of one house.
+struct House<'a> {
+    seed: u64,
+    scene: &'a Scene,
+    walk: &'a Trajectory,
+    capture: &'a Capture<'a>,
+    /// Per scenario: the camera's noise at each 8-bit output level, what the built-in detector
+    /// divides contrast by (`scene_gen_perception::detection::output_noise` says why not the
+    /// image's own estimate).
+    noise_tables: Vec<Option<Vec<f64>>>,
+    threshold_ids: BTreeSet<u32>,
+}
+
+/// Renders pose `i` for `role` and scores what can be scored on it alone: threshold pixels,
+/// the scenarios' 8-bit images, ground truth and the built-in detector's answers. `spare`
+/// holds frames finished with, for the next pose to render into.
+fn render_pose(
+    house: &House<'_>,
+    config: &EvalConfig,
+    (i, role): (usize, Role),
+    spare: &Mutex<Vec<Frame>>,
+) -> Result<PoseResult, EvalError> {
+    let render_error = |source| EvalError::Render { seed: house.seed, source };
+    let pose = house.walk.poses[i];
+    let camera = house.capture.pinhole(&pose);
+    let t0 = Instant::now();
+    let time_s = f64::from(pose.time_s);
+    if role == Role::Window {
+        let thresholds = threshold_pixels_in_boxes(house.capture.renderer(), &camera, &house.scene.thresholds)
+            .map_err(render_error)?;
+        return Ok(PoseResult { thresholds, time_s, times: [secs(t0), 0.0, 0.0], ..PoseResult::default() });
+    }
+    let mut frame = spare.lock().map(|mut v| v.pop()).ok().flatten().unwrap_or_default();
+    house.capture.render_into(&camera, &mut frame)?;
+    let mut out = PoseResult {
+        thresholds: threshold_pixels(&frame.class_id, &frame.instance_id, &house.threshold_ids),
+        time_s,
+        times: [secs(t0), 0.0, 0.0],
+        ..PoseResult::default()
+    };
+    let t1 = Instant::now();
+    let gt =
+        (role == Role::Anchor).then(|| frame_ground_truth(&frame, house.scene, &camera, &GroundTruthConfig::default()));
+    out.times[2] += secs(t1);
+    let t1 = Instant::now();
+    let greys = house.capture.images_8bit(&frame, &camera, &pose, i as u64, config.output);
+    out.times[1] += secs(t1);
+    if let Some(objects) = &gt {
+        let t1 = Instant::now();
+        let detector = DetectabilityModel::default();
+        for (s, grey) in greys.iter().enumerate() {
+            out.usable.push(image_usable(grey) && objects.iter().any(|o| o.counted));
+            if config.detector.is_none() {
+                let image: Vec<f32> = grey.iter().map(|&v| f32::from(v)).collect();
+                let input = DetectorInput {
+                    image_dn: &image,
+                    width: camera.width_px,
+                    height: camera.height_px,
+                    instance_id: &frame.instance_id,
+                    objects,
+                    noise: house.noise_tables[s].as_deref().map_or(NoiseSource::Measured, NoiseSource::ByLevel),
+                    // One draw seed per pose for both scenarios (common random numbers): an
+                    // object is found by day and not at night only because its probability
+                    // differs, not by the luck of the draw.
+                    frame_seed: detector_seed(house.seed, i),
+                };
+                out.detections.push(detector.detect(&input));
+            }
+        }
+        out.times[2] += secs(t1);
+    }
+    out.grey = greys;
+    out.gt = gt;
+    if let Ok(mut frames) = spare.lock() {
+        frames.push(frame);
+    }
+    Ok(out)
+}
+
+/// ORB on each (anchor, successor) pair of each scenario, in parallel: per job `(scenario,
+/// inliers, inlier ratio, anchor keypoints, thread-seconds)`.
+fn orb_pairs(
+    seed: u64,
+    anchors: &[usize],
+    by_pose: &BTreeMap<usize, PoseResult>,
+    (w, h): (u32, u32),
+) -> Vec<(usize, f64, f64, f64, f64)> {
+    let orb = Orb::with_features(ORB_FEATURES);
+    let jobs: Vec<(usize, usize)> = (0..SCENARIO_GROUPS.len())
+        .flat_map(|s| anchors.iter().filter(|&&a| by_pose.contains_key(&(a + 1))).map(move |&a| (s, a)))
+        .collect();
+    jobs.par_iter()
+        .map(|&(s, a)| {
+            let t0 = Instant::now();
+            let ga = &by_pose[&a].grey[s];
+            let gb = &by_pose[&(a + 1)].grey[s];
+            let (ka, da) = orb.detect_and_compute((ga.as_slice(), w as usize, h as usize)).unwrap_or_default();
+            let (kb, db) = orb.detect_and_compute((gb.as_slice(), w as usize, h as usize)).unwrap_or_default();
+            let ransac = FundamentalRansac {
+                seed: scene_gen_core::rng::fnv1a64(format!("evaluate/ransac/{seed}/{a}/{s}").as_bytes()),
+                ..FundamentalRansac::default()
+            };
+            let (_, inl) = match_and_verify(&ka, &da, &kb, &db, &ransac);
+            let inliers = inl.iter().filter(|&&b| b).count() as f64;
+            let kp = ka.len() as f64;
+            let ratio = if inliers + kp > 0.0 { inliers / (inliers + kp) } else { 0.0 };
+            (s, inliers, ratio, kp, secs(t0))
+        })
+        .collect()
+}
+
+/// The running totals of one evaluation, over its houses.
+struct Tally {
+    accs: Vec<Acc>,
+    categories: Vec<CocoCategory>,
+    threshold_config: ThresholdConfig,
+    /// The external detector's image folder and its requests, by scenario.
+    scratch: Option<ScratchDir>,
+    requests: Vec<(usize, PluginRequest)>,
+    next_image_id: u64,
+    timing: Timing,
+}
+
+impl Tally {
+    fn new(resolved: &ResolvedCamera, config: &EvalConfig) -> Result<Tally, EvalError> {
+        let categories: Vec<CocoCategory> = ObjectClass::ALL
+            .iter()
+            .map(|c| CocoCategory { id: c.class_id(), name: c.name().to_string() })
+            .chain(std::iter::once(CocoCategory { id: THRESHOLD_CLASS_ID, name: THRESHOLD_CLASS_NAME.to_string() }))
+            .collect();
+        let mut accs = vec![Acc::default(); SCENARIO_GROUPS.len()];
+        for acc in &mut accs {
+            acc.gt.categories.clone_from(&categories);
+        }
+        // The visible-pixel floor, given at 640 x 480, scales with the pixel count.
+        let pixels = f64::from(resolved.width_px) * f64::from(resolved.height_px);
+        let min_px = ((f64::from(thresholds::DEFAULT_MIN_VISIBLE_PX) * pixels / VGA_PIXELS).round() as u32).max(1);
+        Ok(Tally {
+            accs,
+            categories,
+            threshold_config: ThresholdConfig { window_s: config.threshold_window_s, min_visible_px: min_px },
+            scratch: config.detector.as_ref().map(|_| ScratchDir::new()).transpose()?,
+            requests: Vec::new(),
+            next_image_id: 1,
+            timing: Timing::default(),
+        })
+    }
+
+    /// Renders and scores the house of `seed`.
+    fn add_house(
+        &mut self,
+        library: &Library,
+        seed: u64,
+        spec: &CameraSpec,
+        resolved: &ResolvedCamera,
+        config: &EvalConfig,
+    ) -> Result<(), EvalError> {
         let setup = Instant::now();
         let params = TrajectoryParams {
             height_m: spec.height_m,
             speed_m_per_s: config.speed_m_s as f32,
             ..TrajectoryParams::default()
         };
-        let WalkedHouse { scene, walk } = walked_house(&library, seed, &params)?;
-        let renderer = Renderer::new(&scene, config.render);
-        let scales = scenario_light_scales(&renderer, seed, &[LightGroup::Day, LightGroup::Night])?;
-        let isps: Vec<Isp> = scales
+        let WalkedHouse { scene, walk } = walked_house(library, seed, &params)?;
+        let noise_label = format!("evaluate/{seed}/");
+        let capture =
+            Capture::new(&scene, resolved, &SCENARIO_GROUPS, config.render, params.speed_m_per_s, noise_label)?;
+        let noise_tables = capture
+            .scenarios()
             .iter()
-            .enumerate()
-            .map(|(s, &(_, _, _, lux))| {
-                Isp::for_scenario(
-                    resolved,
-                    gains[s],
-                    f64::from(lux),
-                    if spec.noise == NoiseKind::Affine { 3 } else { 1 },
-                )
-            })
+            .map(|s| output_noise_by_level(resolved, s.gain_db, config.output, &s.isp))
             .collect();
-        // The camera's noise at each output level per scenario, what the built-in detector
-        // divides contrast by (detection::output_noise says why not the image's own estimate).
-        let noise_tables: Vec<Option<Vec<f64>>> = isps
-            .iter()
-            .enumerate()
-            .map(|(s, isp)| output_noise_by_level(resolved, gains[s], config.output, isp))
-            .collect();
-        timing.setup += secs(setup);
-        let n = walk.poses.len();
-        let k = (config.frames_per_scene as usize).min(n);
-        let anchors: Vec<usize> = if k <= 1 {
-            vec![0]
-        } else {
-            (0..k)
-                .map(|i| ((i * (n - 1)) as f64 / (k - 1) as f64).round() as usize)
-                .collect::<BTreeSet<_>>()
-                .into_iter()
-                .collect()
-        };
-        // Pose index -> role: 2 anchor, 1 successor (image), 0 threshold visibility only.
-        let mut roles: BTreeMap<usize, u8> = BTreeMap::new();
-        for &a in &anchors {
-            roles.insert(a, 2);
-            if a + 1 < n {
-                let r = roles.entry(a + 1).or_insert(1);
-                *r = (*r).max(1);
-            }
-        }
-        let crossings: Vec<Crossing> = walk
-            .crossings
-            .iter()
-            .filter_map(|c| {
-                scene.thresholds.get(c.threshold_id as usize).map(|t| Crossing {
-                    instance_id: t.instance_id,
-                    time_s: if config.crossing_at_contact {
-                        contact_time_s(&walk, c.pose_index, t.min.truncate(), t.max.truncate())
-                    } else {
-                        f64::from(c.time_s)
-                    },
-                })
-            })
-            .collect();
-        // Every pose in the window before a crossing (the same test as threshold_score, on the
-        // same f64 times, so no window pose is left unrendered).
-        for c in &crossings {
-            let t = c.time_s;
-            for (i, p) in walk.poses.iter().enumerate() {
-                let pt = f64::from(p.time_s);
-                if pt <= t && pt >= t - config.threshold_window_s {
-                    roles.entry(i).or_insert(0);
-                }
-            }
-        }
-        let threshold_ids: BTreeSet<u32> = scene.thresholds.iter().map(|t| t.instance_id).collect();
-        let jobs: Vec<(usize, u8)> = roles.into_iter().collect();
-        let builtin = config.detector.is_none();
-        // Frames finished with, for the next pose to render into (`Renderer::render_into`):
-        // as many as poses run at once, however many poses there are.
+        let threshold_ids = scene.thresholds.iter().map(|t| t.instance_id).collect();
+        let house = House { seed, scene: &scene, walk: &walk, capture: &capture, noise_tables, threshold_ids };
+        let plan = plan_poses(&walk, &scene, config);
+        self.timing.setup += secs(setup);
+
         let spare_frames: Mutex<Vec<Frame>> = Mutex::new(Vec::new());
-        let results: Vec<Result<PoseResult, RenderError>> = jobs
-            .par_iter()
-            .map(|&(i, role)| {
-                let pose = walk.poses[i];
-                let camera = resolved.camera_at(&pose);
-                let t0 = Instant::now();
-                // Threshold-window poses need only each threshold's visible pixels: ids from
-                // one ray per pixel, over the pixels its box can cover.
-                if role == 0 {
-                    return Ok(PoseResult {
-                        thresholds: threshold_pixels_in_boxes(&renderer, &camera, &scene.thresholds)?,
-                        time_s: f64::from(pose.time_s),
-                        grey: Vec::new(),
-                        gt: None,
-                        detections: Vec::new(),
-                        usable: Vec::new(),
-                        times: [secs(t0), 0.0, 0.0],
-                    });
-                }
-                let mut frame = spare_frames.lock().map(|mut v| v.pop()).ok().flatten().unwrap_or_default();
-                renderer.render_into(&camera, &mut frame)?;
-                let mut times = [secs(t0), 0.0, 0.0];
-                let mut out = PoseResult {
-                    thresholds: threshold_pixels(&frame.class_id, &frame.instance_id, &threshold_ids),
-                    time_s: f64::from(pose.time_s),
-                    grey: Vec::new(),
-                    gt: None,
-                    detections: Vec::new(),
-                    usable: Vec::new(),
-                    times,
-                };
-                let t1 = Instant::now();
-                let gt =
-                    (role == 2).then(|| frame_ground_truth(&frame, &scene, &camera, &GroundTruthConfig::default()));
-                times[2] += secs(t1);
-                let detector_seed = detector_seed(seed, i);
-                // Sensor and ISP: both scenarios' 8-bit images from the one frame.
-                let t1 = Instant::now();
-                let frame_seeds: Vec<u64> = (0..scales.len()).map(|s| capture_seed(seed, i, names[s])).collect();
-                let scenarios: Vec<Scenario<'_>> = scales
-                    .iter()
-                    .enumerate()
-                    .map(|(s, &(_, _, scale, _))| Scenario {
-                        day_weight: if s == 0 { scale } else { 0.0 },
-                        night_weight: if s == 0 { 0.0 } else { scale },
-                        gain_db: gains[s],
-                        frame_seed: frame_seeds[s],
-                        isp: &isps[s],
-                    })
-                    .collect();
-                let optics = OpticsInput {
-                    depth_m: &frame.depth_m,
-                    velocity_m_s: agent_velocity(&resolved.spec, pose.yaw_deg, params.speed_m_per_s),
-                };
-                let greys = capture_8bit(
-                    resolved,
-                    &camera,
-                    &frame.day_nit,
-                    &frame.night_nit,
-                    Some(optics),
-                    seed,
-                    config.output,
-                    &scenarios,
-                );
-                times[1] += secs(t1);
-                for (s, grey) in greys.into_iter().enumerate() {
-                    if let Some(objects) = &gt {
-                        let t1 = Instant::now();
-                        out.usable.push(image_usable(&grey) && objects.iter().any(|o| o.counted));
-                        if builtin {
-                            let image: Vec<f32> = grey.iter().map(|&v| f32::from(v)).collect();
-                            let input = DetectorInput {
-                                image_dn: &image,
-                                width: camera.width_px,
-                                height: camera.height_px,
-                                instance_id: &frame.instance_id,
-                                objects,
-                                noise: noise_tables[s].as_deref().map_or(NoiseSource::Measured, NoiseSource::ByLevel),
-                                // One draw seed per pose for both scenarios (common random
-                                // numbers): an object is found by day and not at night only
-                                // because its probability differs, not by the luck of the draw.
-                                frame_seed: detector_seed,
-                            };
-                            out.detections.push(model.detect(&input));
-                        }
-                        times[2] += secs(t1);
-                    }
-                    out.grey.push(grey);
-                }
-                out.gt = gt;
-                out.times = times;
-                if let Ok(mut spare) = spare_frames.lock() {
-                    spare.push(frame);
-                }
-                Ok(out)
-            })
-            .collect();
+        let results: Vec<Result<PoseResult, EvalError>> =
+            plan.jobs.par_iter().map(|&job| render_pose(&house, config, job, &spare_frames)).collect();
         let mut by_pose: BTreeMap<usize, PoseResult> = BTreeMap::new();
-        for (&(i, _), r) in jobs.iter().zip(results) {
-            let r = r.map_err(|source| EvalError::Render { seed, source })?;
-            timing.render += r.times[0];
-            timing.sensor += r.times[1];
-            timing.detection += r.times[2];
+        for (&(i, _), r) in plan.jobs.iter().zip(results) {
+            let r = r?;
+            self.timing.render += r.times[0];
+            self.timing.sensor += r.times[1];
+            self.timing.detection += r.times[2];
             by_pose.insert(i, r);
         }
+        self.add_thresholds(&by_pose, &plan.crossings);
+        self.add_orb(seed, &plan.anchors, &by_pose, (resolved.width_px, resolved.height_px));
+        self.add_detections(seed, &plan.anchors, &by_pose, (resolved.width_px, resolved.height_px))
+    }
 
-        // Thresholds (geometric: the same in both scenarios).
+    /// Threshold accuracy (geometric: the same in both scenarios).
+    fn add_thresholds(&mut self, by_pose: &BTreeMap<usize, PoseResult>, crossings: &[Crossing]) {
         let vis: Vec<FrameVisibility> =
             by_pose.values().map(|p| FrameVisibility { time_s: p.time_s, visible_px: p.thresholds.clone() }).collect();
-        let ts = thresholds::threshold_score(&vis, &crossings, &tcfg);
+        let ts = thresholds::threshold_score(&vis, crossings, &self.threshold_config);
+        for acc in &mut self.accs {
+            acc.seen += ts.seen;
+            acc.missed += ts.missed;
+        }
+    }
 
-        // ORB pairs, in parallel over (scenario, anchor).
-        let pair_jobs: Vec<(usize, usize)> =
-            (0..2).flat_map(|s| anchors.iter().filter(|&&a| a + 1 < n).map(move |&a| (s, a))).collect();
-        let pair_scores: Vec<(usize, f64, f64, f64, f64)> = pair_jobs
-            .par_iter()
-            .map(|&(s, a)| {
-                let t0 = Instant::now();
-                let ga = &by_pose[&a].grey[s];
-                let gb = &by_pose[&(a + 1)].grey[s];
-                let (ka, da) = orb.detect_and_compute((ga.as_slice(), w as usize, h as usize)).unwrap_or_default();
-                let (kb, db) = orb.detect_and_compute((gb.as_slice(), w as usize, h as usize)).unwrap_or_default();
-                let ransac = FundamentalRansac {
-                    seed: scene_gen_core::rng::fnv1a64(format!("evaluate/ransac/{seed}/{a}/{s}").as_bytes()),
-                    ..FundamentalRansac::default()
-                };
-                let (_, inl) = match_and_verify(&ka, &da, &kb, &db, &ransac);
-                let inliers = inl.iter().filter(|&&b| b).count() as f64;
-                let kp = ka.len() as f64;
-                let ratio = if inliers + kp > 0.0 { inliers / (inliers + kp) } else { 0.0 };
-                (s, inliers, ratio, kp, secs(t0))
-            })
-            .collect();
-        for (s, inliers, ratio, kp, t) in pair_scores {
-            let acc = &mut accs[s];
+    /// ORB inliers and ratios of the anchor pairs.
+    fn add_orb(&mut self, seed: u64, anchors: &[usize], by_pose: &BTreeMap<usize, PoseResult>, size: (u32, u32)) {
+        for (s, inliers, ratio, kp, t) in orb_pairs(seed, anchors, by_pose, size) {
+            let acc = &mut self.accs[s];
             acc.inliers += inliers;
             acc.ratio += ratio;
             acc.keypoints += kp;
             acc.pairs += 1;
-            timing.orb += t;
+            self.timing.orb += t;
         }
+    }
 
-        // Detection: every anchor, in pose order; one image id per (anchor, scenario).
-        for &a in &anchors {
+    /// Ground truth and detections of every anchor, in pose order; one image id per (anchor,
+    /// scenario). For an external detector, the anchors' images are written for it.
+    fn add_detections(
+        &mut self,
+        seed: u64,
+        anchors: &[usize],
+        by_pose: &BTreeMap<usize, PoseResult>,
+        (w, h): (u32, u32),
+    ) -> Result<(), EvalError> {
+        for &a in anchors {
             let p = &by_pose[&a];
             let objects = p.gt.as_deref().unwrap_or(&[]);
-            for (s, acc) in accs.iter_mut().enumerate() {
-                let image_id = next_image_id;
-                next_image_id += 1;
-                let file_name = format!("seed{seed}_pose{a:05}_{}.png", names[s]);
+            for (s, acc) in self.accs.iter_mut().enumerate() {
+                let image_id = self.next_image_id;
+                self.next_image_id += 1;
+                let file_name = format!("seed{seed}_pose{a:05}_{}.png", scenario_name(SCENARIO_GROUPS[s]));
                 acc.frames += 1;
                 acc.usable += usize::from(p.usable.get(s).copied().unwrap_or(false));
                 acc.gt.images.push(CocoImage { id: image_id, width: w, height: h, file_name: file_name.clone() });
@@ -945,29 +898,28 @@ fn compute(
                 if let Some(dets) = p.detections.get(s) {
                     acc.dets.extend(dets.iter().map(|d| d.record(image_id)));
                 }
-                if let Some(dir) = &scratch {
+                if let Some(dir) = &self.scratch {
                     let t0 = Instant::now();
                     let path = dir.0.join(&file_name);
                     let img = image::GrayImage::from_raw(w, h, p.grey[s].clone())
                         .ok_or_else(|| io_error(&path, &"image size mismatch"))?;
                     img.save(&path).map_err(|e| io_error(&path, &e))?;
-                    requests
+                    self.requests
                         .push((s, PluginRequest { image_id, path: path.display().to_string(), width: w, height: h }));
-                    timing.detection += secs(t0);
+                    self.timing.detection += secs(t0);
                 }
             }
         }
-        for acc in &mut accs {
-            acc.seen += ts.seen;
-            acc.missed += ts.missed;
-        }
+        Ok(())
     }
 
-    if let (Some(det), Some(dir)) = (&config.detector, &scratch) {
+    /// Runs the external detector once over every anchor image of every house, both scenarios'
+    /// ground truth in one COCO file beside them (ids are unique across them).
+    fn run_external_detector(&mut self, det: &ExternalDetector) -> Result<(), EvalError> {
+        let Some(dir) = &self.scratch else { return Ok(()) };
         let t0 = Instant::now();
-        // Both scenarios' ground truth in one COCO file (ids are unique across them).
-        let mut all = CocoGroundTruth { categories: categories.clone(), ..CocoGroundTruth::default() };
-        for acc in &accs {
+        let mut all = CocoGroundTruth { categories: self.categories.clone(), ..CocoGroundTruth::default() };
+        for acc in &self.accs {
             all.images.extend(acc.gt.images.iter().cloned());
             all.annotations.extend(acc.gt.annotations.iter().cloned());
         }
@@ -982,24 +934,25 @@ fn compute(
             .iter()
             .map(|a| a.replace("{gt}", &gt_path.display().to_string()).replace("{dir}", &dir.0.display().to_string()))
             .collect();
-        let reqs: Vec<PluginRequest> = requests.iter().map(|(_, r)| r.clone()).collect();
+        let reqs: Vec<PluginRequest> = self.requests.iter().map(|(_, r)| r.clone()).collect();
         let records = plugin::run(&det.program, &args, &reqs)?;
-        let scenario_of: HashMap<u64, usize> = requests.iter().map(|(s, r)| (r.image_id, *s)).collect();
+        let scenario_of: HashMap<u64, usize> = self.requests.iter().map(|(s, r)| (r.image_id, *s)).collect();
         for rec in records {
             if let Some(&s) = scenario_of.get(&rec.image_id) {
-                accs[s].dets.push(rec);
+                self.accs[s].dets.push(rec);
             }
         }
         // Sorted by image then score so the result does not depend on the detector's answer order.
-        for acc in &mut accs {
+        for acc in &mut self.accs {
             acc.dets.sort_by(|a, b| a.image_id.cmp(&b.image_id).then(b.score.total_cmp(&a.score)));
         }
-        timing.plugin = secs(t0);
+        self.timing.plugin = secs(t0);
+        Ok(())
     }
 
-    let weights = config.weights;
-    let mut scores = Vec::new();
-    for acc in &accs {
+    /// The scores of one scenario: COCO AP@0.5, threshold accuracy, ORB means and the fitness.
+    fn score(acc: &Acc, config: &EvalConfig) -> Result<ScenarioScore, EvalError> {
+        let weights = config.weights;
         let metrics = coco_eval::evaluate(&acc.gt, &acc.dets)?;
         let ap50 = metrics.ap50.max(0.0);
         let threshold_accuracy =
@@ -1019,7 +972,7 @@ fn compute(
                 + weights.inliers * mean_inliers
                 + weights.inlier_ratio * inlier_ratio
         };
-        scores.push(ScenarioScore {
+        Ok(ScenarioScore {
             threshold_accuracy,
             thresholds_seen: acc.seen,
             thresholds_missed: acc.missed,
@@ -1033,19 +986,38 @@ fn compute(
             min_usable_images: min_usable,
             threshold_only,
             fitness,
-        });
+        })
     }
-    let night = scores.pop().expect("two scenarios");
-    let day = scores.pop().expect("two scenarios");
+}
+
+/// The evaluation itself: every house rendered and scored, then the scores combined.
+fn compute(
+    spec: &CameraSpec,
+    resolved: &ResolvedCamera,
+    seeds: &[u64],
+    config: &EvalConfig,
+) -> Result<Evaluation, EvalError> {
+    COMPUTED.fetch_add(1, Ordering::SeqCst);
+    let wall = Instant::now();
+    let library = embedded_library()?;
+    let mut tally = Tally::new(resolved, config)?;
+    for &seed in seeds {
+        tally.add_house(&library, seed, spec, resolved, config)?;
+    }
+    if let Some(det) = &config.detector {
+        tally.run_external_detector(det)?;
+    }
+    let day = Tally::score(&tally.accs[0], config)?;
+    let night = Tally::score(&tally.accs[1], config)?;
     let fitness = Fitness { day: day.fitness, night: night.fitness, mean: 0.5 * (day.fitness + night.fitness) };
-    timing.wall = secs(wall);
+    tally.timing.wall = secs(wall);
     Ok(Evaluation {
         camera: spec.clone(),
         seeds: seeds.to_vec(),
         config: config.clone(),
         scenarios: Scenarios { day, night },
         fitness,
-        timing_s: Some(timing),
+        timing_s: Some(tally.timing),
     })
 }
 

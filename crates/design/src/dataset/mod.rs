@@ -42,12 +42,11 @@ use std::path::{Path, PathBuf};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::evaluate::{EvalError, scenario_light_scales};
 use scene_gen_camera::camera_spec::{CameraSpec, ResolvedCamera, SpecError};
-use scene_gen_camera::radiometry::capture_frame;
+use scene_gen_camera::capture::{Capture, CaptureError};
 use scene_gen_camera::sensor::Catalog;
 use scene_gen_perception::detection::{GroundTruthConfig, frame_ground_truth};
-use scene_gen_render::{RenderError, RenderSettings, Renderer};
+use scene_gen_render::RenderSettings;
 use scene_gen_scene::house::{HouseError, WalkedHouse, embedded_library, walked_house};
 use scene_gen_scene::scene::{LightGroup, ObjectClass, THRESHOLD_CLASS_ID, THRESHOLD_CLASS_NAME};
 use scene_gen_scene::trajectory::TrajectoryParams;
@@ -77,14 +76,8 @@ pub enum DatasetError {
     Mismatch { dir: PathBuf },
     #[error(transparent)]
     House(#[from] HouseError),
-    #[error("rendering house {seed}: {source}")]
-    Render {
-        seed: u64,
-        #[source]
-        source: RenderError,
-    },
     #[error(transparent)]
-    Lights(#[from] EvalError),
+    Capture(#[from] CaptureError),
     #[error("house {seed}: {why}")]
     Limit { seed: u64, why: String },
     #[error(transparent)]
@@ -536,16 +529,17 @@ impl Dataset {
 
         let mut rendered: Vec<FrameLabels> = Vec::new();
         if !todo.is_empty() {
-            let renderer = Renderer::new(&scene, self.spec.quality.settings());
             let groups: Vec<LightGroup> = self.spec.lighting.iter().map(|l| l.group()).collect();
-            let scales = scenario_light_scales(&renderer, seed, &groups)?;
+            let settings = self.spec.quality.settings();
+            let noise_label = format!("dataset/{seed}/");
+            let capture = Capture::new(&scene, &self.resolved, &groups, settings, params.speed_m_per_s, noise_label)?;
             let gt_config = self.spec.ground_truth;
             rendered = todo
                 .par_iter()
                 .map(|&p| {
                     let pose = walk.poses[p];
-                    let camera = self.resolved.camera_at(&pose);
-                    let frame = renderer.render(&camera).map_err(|source| DatasetError::Render { seed, source })?;
+                    let camera = capture.pinhole(&pose);
+                    let frame = capture.render(&camera)?;
                     let gt = frame_ground_truth(&frame, &scene, &camera, &gt_config);
                     let counted: BTreeSet<u32> = gt.iter().filter(|o| o.counted).map(|o| o.instance_id).collect();
                     if let Some(&big) = counted.iter().find(|&&id| id > u32::from(u16::MAX)) {
@@ -570,27 +564,9 @@ impl Dataset {
                             })
                         })
                         .collect();
-                    for (&lighting, &(_, _, scale, _)) in self.spec.lighting.iter().zip(&scales) {
-                        let radiance =
-                            if lighting == Lighting::Day { frame.mix(scale, 0.0) } else { frame.mix(0.0, scale) };
-                        let gain_db = if lighting == Lighting::Day {
-                            self.spec.camera.gain_day_db
-                        } else {
-                            self.spec.camera.gain_night_db
-                        };
-                        let frame_seed =
-                            scene_gen_core::rng::fnv1a64(format!("dataset/{seed}/{p}/{}", lighting.name()).as_bytes());
-                        let optics = scene_gen_camera::optics::OpticsInput {
-                            depth_m: &frame.depth_m,
-                            velocity_m_s: scene_gen_camera::optics::agent_velocity(
-                                &self.resolved.spec,
-                                pose.yaw_deg,
-                                params.speed_m_per_s,
-                            ),
-                        };
-                        let cap =
-                            capture_frame(&self.resolved, &camera, &radiance, Some(optics), gain_db, seed, frame_seed);
-                        let (bytes, _) = png::capture_png(&cap);
+                    for (&lighting, scenario) in self.spec.lighting.iter().zip(capture.scenarios()) {
+                        let image = capture.sensor_image(&frame, &camera, &pose, scenario, p as u64);
+                        let (bytes, _) = png::capture_png(&image);
                         self.write(&self.dir.join("images").join(Self::image_rel(seed, p, lighting)), &bytes)?;
                     }
                     self.write(&self.dir.join(Self::depth_rel(seed, p)), &png::depth_png(&frame))?;
