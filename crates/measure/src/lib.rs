@@ -11,7 +11,10 @@
 //!   misses and adds them while each earns its place (`scene-gen gap`).
 //! * [`target`]: the same loop for images of a test chart (`scene-gen target`): lens blur,
 //!   motion blur, illumination fall-off and single-frame noise effects.
+//! * [`search`]: the effect search both share: effects are types behind [`search::Effect`],
+//!   each measurement a [`search::Problem`].
 
 pub mod calibration;
 pub mod gap;
+pub mod search;
 pub mod target;

@@ -19,7 +19,7 @@
 //!    statistics; the candidate whose re-simulated chi-square drops most is added when the
 //!    drop beats twice the Bayesian information criterion penalty, `2 k ln n` (k parameters, n
 //!    statistics; the factor 2 because the sampling variances are estimated, see
-//!    [`fit::PENALTY_FACTOR`]); after each addition the linear model's nuisance parameters
+//!    [`crate::search::PENALTY_FACTOR`]); after each addition the linear model's nuisance parameters
 //!    (K, read noise, responsivity) and the added effects are refitted; repeat until no
 //!    candidate earns its place.
 //!

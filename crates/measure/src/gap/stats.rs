@@ -330,7 +330,7 @@ fn var_of_var(v: f64, m4: f64, rv: f64, n: f64, h: f64) -> f64 {
 /// Gaussian core's expected count above `T` (the count floor of [`count_deviance`]), so one
 /// pixel above `T` scores a deviance of `2 (ln(1 / alpha) - 1) = 11.8`, just enough to beat the
 /// 2-parameter hot-pixel penalty `2 ln n` (9.5 at n = 115 statistics, see
-/// [`super::fit::bic_penalty`]) up to n = 365: a clean set names `hot_pixels` with probability
+/// [`super::fit::HotPixels`]) up to n = 365: a clean set names `hot_pixels` with probability
 /// about `alpha`, and a single pixel far beyond the Gaussian core is evidence enough. At
 /// `alpha = 0.01` (4.9 sigmas at 160x120) one pixel would score only 7.2.
 pub const DARK_TAIL_FALSE_ALARM: f64 = 0.001;

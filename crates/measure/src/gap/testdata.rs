@@ -14,17 +14,17 @@ use std::path::{Path, PathBuf};
 
 use rand::Rng as _;
 
-use super::fit::CANDIDATES;
+use super::fit::effect_names;
 use super::{Acquisition, Block, GapModel, IlluminationFalloff, Light, Optics, simulate_acquisition};
 use scene_gen_camera::sensor::SensorModel;
 use scene_gen_camera::sensor::noise::{self, Effects};
 use scene_gen_core::rng;
 
-/// Effects a hidden case may switch on: every effect the workflow can try ([`CANDIDATES`]), so a
+/// Effects a hidden case may switch on: every effect the workflow can try ([`super::fit::EFFECTS`]), so a
 /// test can catch both a missed effect and one it never tries, less `read_noise_split`, which one
 /// gain cannot show (only [`random_multigain_case`] hides it).
 pub fn single_gain_hidden() -> Vec<&'static str> {
-    CANDIDATES.into_iter().filter(|e| *e != "read_noise_split").collect()
+    effect_names().into_iter().filter(|e| *e != "read_noise_split").collect()
 }
 
 const WIDTH: usize = 64;

@@ -18,7 +18,7 @@
 //!   signal above black): `prnu` adds `(p S)^2`, `dsnu` adds `(K g d)^2`.
 //!
 //! Acceptance: the largest drop of the total chi-square must exceed
-//! `PENALTY_FACTOR * k ln n` (BIC, k fitted parameters, n statistics). A parameter fitted to
+//! [`search::PENALTY_FACTOR`]` * k ln n` (BIC, k fitted parameters, n statistics). A parameter fitted to
 //! sampling noise lowers the chi-square by about 1 per parameter, far below `2 ln 65 = 8.3`.
 
 use serde_json::json;
@@ -26,13 +26,7 @@ use serde_json::json;
 use super::effects::{Falloff, LensBlur, MotionBlur};
 use super::stats::{self, Gap, SimStats, Stats, Tolerance};
 use super::{Simulator, Step, TargetModel, TargetResult, Trial};
-
-/// Effects the loop can add, in the order they are tried (ties go to the earlier one).
-pub const CANDIDATES: [&str; 5] = ["lens_blur", "motion_blur", "illumination_falloff", "prnu", "dsnu"];
-
-/// Factor on the BIC penalty: five candidates are tried per round and the variances of some
-/// statistics are estimated from a few realisations (as in `crate::gap::fit`).
-pub const PENALTY_FACTOR: f64 = 2.0;
+use crate::search::{self, Effect, Problem};
 
 /// Re-simulations polishing each candidate's parameters.
 pub const POLISH_STEPS: usize = 2;
@@ -42,15 +36,6 @@ const WIDTH_OVER_SIGMA: [f64; 4] = [2.5631, 1.3490, 2.5631, 1.3490];
 
 /// Most rounds of the search.
 const MAX_ROUNDS: usize = 4;
-
-/// Number of fitted parameters (the BIC's k).
-#[must_use]
-pub fn param_count(effect: &str) -> usize {
-    match effect {
-        "motion_blur" | "illumination_falloff" => 2,
-        _ => 1,
-    }
-}
 
 /// Increments of the Gaussian-equivalent variance across x and across y.
 fn width_increments(m: &Stats, s: &SimStats) -> (f64, f64) {
@@ -81,175 +66,350 @@ fn lsq2(rows: &[([f64; 2], f64)]) -> Option<[f64; 2]> {
     Some([(n[0][2] * n[1][1] - n[0][1] * n[1][2]) / det, (n[0][0] * n[1][2] - n[1][0] * n[0][2]) / det])
 }
 
-/// Proposes `effect` on top of `model` (or updates it when already on), fitted from the measured
-/// statistics `m` and the current simulation `s`. None: the data do not call for it.
+/// The effects the loop can add, in the order they are tried (ties go to the earlier one).
+pub const EFFECTS: [&dyn Effect<ChartProblem>; 5] =
+    [&LensBlurFit, &MotionBlurFit, &IlluminationFalloffFit, &PrnuFit, &DsnuFit];
+
+/// The effect called `name`, if the loop has it.
 #[must_use]
-pub fn propose(effect: &str, model: &TargetModel, m: &Stats, s: &SimStats, sim: &Simulator) -> Option<TargetModel> {
-    let mut next = model.clone();
-    let layout = &sim.layout;
-    let black = layout.black_level_dn;
-    match effect {
-        "lens_blur" => {
-            let (dx, dy) = width_increments(m, s);
-            let cur = model.optics.lens_blur.map_or(0.0, |b| b.sigma_px);
-            let v = cur * cur + (dx + dy) / 2.0;
-            if v < 0.01 {
-                return None;
+pub fn effect(name: &str) -> Option<&'static dyn Effect<ChartProblem>> {
+    EFFECTS.iter().copied().find(|e| e.name() == name)
+}
+
+/// A model's simulated statistics and their gap to the measured image.
+pub type ChartSim = (SimStats, Gap);
+
+/// `lens_blur`: a Gaussian point spread, from the Gaussian-equivalent variances of the four edge
+/// widths.
+#[derive(Debug)]
+pub struct LensBlurFit;
+
+impl Effect<ChartProblem> for LensBlurFit {
+    fn name(&self) -> &'static str {
+        "lens_blur"
+    }
+
+    fn param_count(&self) -> usize {
+        1
+    }
+
+    fn fit(&self, problem: &ChartProblem, model: &TargetModel, (s, _): &ChartSim) -> Option<TargetModel> {
+        let (dx, dy) = width_increments(&problem.measured, s);
+        let cur = model.optics.lens_blur.map_or(0.0, |b| b.sigma_px);
+        let v = cur * cur + (dx + dy) / 2.0;
+        if v < 0.01 {
+            return None;
+        }
+        let mut next = model.clone();
+        next.optics.lens_blur = Some(LensBlur { sigma_px: v.sqrt() });
+        Some(next)
+    }
+
+    fn params(&self, model: &TargetModel) -> serde_json::Value {
+        json!(model.optics.lens_blur)
+    }
+
+    fn scaled(&self, model: &TargetModel, factor: f64) -> Option<TargetModel> {
+        let mut m = model.clone();
+        m.optics.lens_blur.iter_mut().for_each(|b| b.sigma_px *= factor);
+        Some(m)
+    }
+}
+
+/// `motion_blur`: a line point spread, its length and angle from the edge-width increments
+/// across x and across y (a line of length L at angle a has variance `L^2 cos^2 a / 12` across x
+/// and `L^2 sin^2 a / 12` across y).
+#[derive(Debug)]
+pub struct MotionBlurFit;
+
+impl Effect<ChartProblem> for MotionBlurFit {
+    fn name(&self) -> &'static str {
+        "motion_blur"
+    }
+
+    fn param_count(&self) -> usize {
+        2
+    }
+
+    fn fit(&self, problem: &ChartProblem, model: &TargetModel, (s, _): &ChartSim) -> Option<TargetModel> {
+        let (dx, dy) = width_increments(&problem.measured, s);
+        let (l, a) = model.optics.motion_blur.map_or((0.0, 0.0), |b| (b.length_px, b.angle_deg.to_radians()));
+        let vx = (l * l / 12.0 * a.cos().powi(2) + dx).max(0.0);
+        let vy = (l * l / 12.0 * a.sin().powi(2) + dy).max(0.0);
+        let length = (12.0 * (vx + vy)).sqrt();
+        if length < 1.0 {
+            return None;
+        }
+        let mut next = model.clone();
+        next.optics.motion_blur =
+            Some(MotionBlur { length_px: length, angle_deg: vy.sqrt().atan2(vx.sqrt()).to_degrees() });
+        Some(next)
+    }
+
+    fn params(&self, model: &TargetModel) -> serde_json::Value {
+        json!(model.optics.motion_blur)
+    }
+
+    fn scaled(&self, model: &TargetModel, factor: f64) -> Option<TargetModel> {
+        let mut m = model.clone();
+        m.optics.motion_blur.iter_mut().for_each(|b| b.length_px *= factor);
+        Some(m)
+    }
+}
+
+/// `illumination_falloff`: least squares of the patch-mean ratio `(m - black) / (s - black) - 1`
+/// on `r^2` and `r^4`, composed with the current fall-off.
+#[derive(Debug)]
+pub struct IlluminationFalloffFit;
+
+impl Effect<ChartProblem> for IlluminationFalloffFit {
+    fn name(&self) -> &'static str {
+        "illumination_falloff"
+    }
+
+    fn param_count(&self) -> usize {
+        2
+    }
+
+    fn fit(&self, problem: &ChartProblem, model: &TargetModel, (s, _): &ChartSim) -> Option<TargetModel> {
+        let (m, layout) = (&problem.measured, &problem.sim.layout);
+        let black = layout.black_level_dn;
+        let rows: Vec<([f64; 2], f64)> = layout
+            .patches
+            .iter()
+            .enumerate()
+            .filter_map(|(i, p)| {
+                let (mm, ss) = (m.patch_mean[i] - black, s.mean.patch_mean[i] - black);
+                let u = p.radius * p.radius;
+                (ss > 0.0).then(|| ([u, u * u], mm / ss - 1.0))
+            })
+            .collect();
+        let [a, b] = lsq2(&rows)?;
+        let cur = model.optics.illumination_falloff.unwrap_or(Falloff { a: 0.0, b: 0.0 });
+        let mut next = model.clone();
+        next.optics.illumination_falloff = Some(Falloff { a: cur.a + a, b: cur.b + b + cur.a * a });
+        Some(next)
+    }
+
+    fn params(&self, model: &TargetModel) -> serde_json::Value {
+        json!(model.optics.illumination_falloff)
+    }
+
+    fn scaled(&self, model: &TargetModel, factor: f64) -> Option<TargetModel> {
+        let mut m = model.clone();
+        m.optics.illumination_falloff.iter_mut().for_each(|b| {
+            b.a *= factor;
+            b.b *= factor;
+        });
+        Some(m)
+    }
+}
+
+/// Least squares of the patch-variance residual on `1` and `S^2` (S the signal above black):
+/// `(c0, c1)`, the constant (dark) and signal-squared (photo-response) parts.
+fn variance_excess(problem: &ChartProblem, s: &SimStats) -> Option<[f64; 2]> {
+    let (m, black) = (&problem.measured, problem.sim.layout.black_level_dn);
+    let rows: Vec<([f64; 2], f64)> = (0..m.patch_var.len())
+        .map(|i| {
+            let sig = (s.mean.patch_mean[i] - black).max(0.0);
+            ([1.0, sig * sig], m.patch_var[i] - s.mean.patch_var[i])
+        })
+        .collect();
+    lsq2(&rows)
+}
+
+/// `prnu`: photo-response non-uniformity, `(p S)^2` of the patch-variance excess.
+#[derive(Debug)]
+pub struct PrnuFit;
+
+impl Effect<ChartProblem> for PrnuFit {
+    fn name(&self) -> &'static str {
+        "prnu"
+    }
+
+    fn param_count(&self) -> usize {
+        1
+    }
+
+    fn fit(&self, problem: &ChartProblem, model: &TargetModel, (s, _): &ChartSim) -> Option<TargetModel> {
+        let [_, c1] = variance_excess(problem, s)?;
+        let mut next = model.clone();
+        let e = &mut next.sensor.effects;
+        let cur = if e.prnu.enabled { e.prnu.std_fraction } else { 0.0 };
+        let v = cur * cur + c1;
+        if v <= 0.0 {
+            return None;
+        }
+        e.prnu.enabled = true;
+        e.prnu.std_fraction = v.sqrt();
+        Some(next)
+    }
+
+    fn params(&self, model: &TargetModel) -> serde_json::Value {
+        json!({ "std_fraction": model.sensor.effects.prnu.std_fraction })
+    }
+
+    fn scaled(&self, model: &TargetModel, factor: f64) -> Option<TargetModel> {
+        let mut m = model.clone();
+        m.sensor.effects.prnu.std_fraction *= factor;
+        Some(m)
+    }
+}
+
+/// `dsnu`: dark signal non-uniformity, `(K g d)^2` of the patch-variance excess.
+#[derive(Debug)]
+pub struct DsnuFit;
+
+impl Effect<ChartProblem> for DsnuFit {
+    fn name(&self) -> &'static str {
+        "dsnu"
+    }
+
+    fn param_count(&self) -> usize {
+        1
+    }
+
+    fn fit(&self, problem: &ChartProblem, model: &TargetModel, (s, _): &ChartSim) -> Option<TargetModel> {
+        let [c0, _] = variance_excess(problem, s)?;
+        let mut next = model.clone();
+        let k = model.sensor.k_dn_per_e(problem.sim.layout.gain_db);
+        let e = &mut next.sensor.effects;
+        let cur = if e.dsnu.enabled { e.dsnu.std_e } else { 0.0 };
+        let v = cur * cur + c0 / (k * k);
+        if v <= 0.0 {
+            return None;
+        }
+        e.dsnu.enabled = true;
+        e.dsnu.std_e = v.sqrt();
+        Some(next)
+    }
+
+    fn params(&self, model: &TargetModel) -> serde_json::Value {
+        json!({ "std_e": model.sensor.effects.dsnu.std_e })
+    }
+
+    fn scaled(&self, model: &TargetModel, factor: f64) -> Option<TargetModel> {
+        let mut m = model.clone();
+        m.sensor.effects.dsnu.std_e *= factor;
+        Some(m)
+    }
+}
+
+/// A photograph of the test chart as a [`Problem`] of the effect search.
+#[derive(Debug)]
+pub struct ChartProblem {
+    measured: Stats,
+    sim: Simulator,
+    tolerance: Tolerance,
+}
+
+impl ChartProblem {
+    /// `effect` fitted on `model` and settled by `steps` fit-and-simulate rounds; with its
+    /// simulation. None when it is never proposed.
+    fn fit_effect(
+        &self,
+        effect: &dyn Effect<Self>,
+        model: &TargetModel,
+        current: &ChartSim,
+        steps: usize,
+    ) -> Option<(TargetModel, ChartSim)> {
+        let mut cur = effect.fit(self, model, current)?;
+        let mut cur_s = self.simulate(&cur);
+        for _ in 0..steps {
+            let Some(next) = effect.fit(self, &cur, &cur_s) else { break };
+            let next_s = self.simulate(&next);
+            cur = next;
+            cur_s = next_s;
+        }
+        Some((cur, cur_s))
+    }
+
+    /// Polishes the size of `effect` in `model` by minimising the total chi-square over a
+    /// factor: three rounds of a parabola through the best factor and its neighbours at a
+    /// shrinking step.
+    fn polish_scale(&self, effect: &dyn Effect<Self>, model: TargetModel, sim: ChartSim) -> (TargetModel, ChartSim) {
+        let eval = |f: f64| {
+            let c = effect.scaled(&model, f).unwrap_or_else(|| model.clone());
+            let cs = self.simulate(&c);
+            (f, c, cs)
+        };
+        let mut best = (1.0, model.clone(), sim);
+        let mut step = 0.08;
+        for _ in 0..3 {
+            let lo = eval(best.0 - step);
+            let hi = eval(best.0 + step);
+            let (y0, y1, y2) = (lo.2.1.chi2, best.2.1.chi2, hi.2.1.chi2);
+            let curv = y0 - 2.0 * y1 + y2;
+            let mut tried = vec![lo, hi];
+            if curv > 0.0 {
+                let x = best.0 + step * (y0 - y2) / (2.0 * curv);
+                tried.push(eval(x.clamp(best.0 - 2.0 * step, best.0 + 2.0 * step).max(0.01)));
             }
-            next.optics.lens_blur = Some(LensBlur { sigma_px: v.sqrt() });
-        }
-        "motion_blur" => {
-            let (dx, dy) = width_increments(m, s);
-            let (l, a) = model.optics.motion_blur.map_or((0.0, 0.0), |b| (b.length_px, b.angle_deg.to_radians()));
-            let vx = (l * l / 12.0 * a.cos().powi(2) + dx).max(0.0);
-            let vy = (l * l / 12.0 * a.sin().powi(2) + dy).max(0.0);
-            let length = (12.0 * (vx + vy)).sqrt();
-            if length < 1.0 {
-                return None;
-            }
-            next.optics.motion_blur =
-                Some(MotionBlur { length_px: length, angle_deg: vy.sqrt().atan2(vx.sqrt()).to_degrees() });
-        }
-        "illumination_falloff" => {
-            let rows: Vec<([f64; 2], f64)> = layout
-                .patches
-                .iter()
-                .enumerate()
-                .filter_map(|(i, p)| {
-                    let (mm, ss) = (m.patch_mean[i] - black, s.mean.patch_mean[i] - black);
-                    let u = p.radius * p.radius;
-                    (ss > 0.0).then(|| ([u, u * u], mm / ss - 1.0))
-                })
-                .collect();
-            let [a, b] = lsq2(&rows)?;
-            let cur = model.optics.illumination_falloff.unwrap_or(Falloff { a: 0.0, b: 0.0 });
-            next.optics.illumination_falloff = Some(Falloff { a: cur.a + a, b: cur.b + b + cur.a * a });
-        }
-        "prnu" | "dsnu" => {
-            let rows: Vec<([f64; 2], f64)> = (0..m.patch_var.len())
-                .map(|i| {
-                    let sig = (s.mean.patch_mean[i] - black).max(0.0);
-                    ([1.0, sig * sig], m.patch_var[i] - s.mean.patch_var[i])
-                })
-                .collect();
-            let [c0, c1] = lsq2(&rows)?;
-            let e = &mut next.sensor.effects;
-            if effect == "prnu" {
-                let cur = if e.prnu.enabled { e.prnu.std_fraction } else { 0.0 };
-                let v = cur * cur + c1;
-                if v <= 0.0 {
-                    return None;
+            for t in tried {
+                if t.2.1.chi2 < best.2.1.chi2 {
+                    best = t;
                 }
-                e.prnu.enabled = true;
-                e.prnu.std_fraction = v.sqrt();
-            } else {
-                let k = model.sensor.k_dn_per_e(layout.gain_db);
-                let cur = if e.dsnu.enabled { e.dsnu.std_e } else { 0.0 };
-                let v = cur * cur + c0 / (k * k);
-                if v <= 0.0 {
-                    return None;
+            }
+            step /= 3.0;
+        }
+        (best.1, best.2)
+    }
+}
+
+impl Problem for ChartProblem {
+    type Model = TargetModel;
+    type Sim = ChartSim;
+
+    fn effects(&self) -> &[&'static dyn Effect<Self>] {
+        &EFFECTS
+    }
+
+    fn simulate(&self, model: &TargetModel) -> ChartSim {
+        let s = self.sim.run(model);
+        let g = stats::gap(&self.measured, &s, &self.tolerance);
+        (s, g)
+    }
+
+    fn chi2((_, g): &ChartSim) -> f64 {
+        g.chi2
+    }
+
+    fn ln_n(&self, _: &ChartSim) -> f64 {
+        (self.measured.len().max(2) as f64).ln()
+    }
+
+    fn max_rounds(&self) -> usize {
+        MAX_ROUNDS
+    }
+
+    fn is_candidate(&self, effect: &dyn Effect<Self>, _: &TargetModel, added: &[&'static str]) -> bool {
+        !added.contains(&effect.name())
+    }
+
+    /// The fit settled by [`POLISH_STEPS`] re-simulations.
+    fn propose(
+        &self,
+        effect: &dyn Effect<Self>,
+        model: &TargetModel,
+        current: &ChartSim,
+    ) -> Option<(TargetModel, Option<ChartSim>)> {
+        self.fit_effect(effect, model, current, POLISH_STEPS).map(|(m, s)| (m, Some(s)))
+    }
+
+    /// Refits everything added so far against the new residuals (one increment, kept only if it
+    /// lowers the chi-square, then the size by a parabola search).
+    fn polish(&mut self, added: &[&'static str], model: TargetModel, sim: ChartSim) -> (TargetModel, ChartSim) {
+        let (mut refined, mut cur) = (model, sim);
+        for e in added.iter().filter_map(|&name| effect(name)) {
+            if let Some((r, rs)) = self.fit_effect(e, &refined, &cur, 0) {
+                if rs.1.chi2 < cur.1.chi2 {
+                    (refined, cur) = (r, rs);
                 }
-                e.dsnu.enabled = true;
-                e.dsnu.std_e = v.sqrt();
             }
+            (refined, cur) = self.polish_scale(e, refined, cur);
         }
-        _ => return None,
+        (refined, cur)
     }
-    Some(next)
-}
-
-/// The parameters of `effect` in `model`, as JSON.
-#[must_use]
-pub fn params(effect: &str, model: &TargetModel) -> serde_json::Value {
-    let o = &model.optics;
-    let e = &model.sensor.effects;
-    match effect {
-        "lens_blur" => json!(o.lens_blur),
-        "motion_blur" => json!(o.motion_blur),
-        "illumination_falloff" => json!(o.illumination_falloff),
-        "prnu" => json!({ "std_fraction": e.prnu.std_fraction }),
-        "dsnu" => json!({ "std_e": e.dsnu.std_e }),
-        _ => serde_json::Value::Null,
-    }
-}
-
-/// Fits `effect` by [`propose`] and `steps` re-simulations; None when it is never proposed.
-fn fit_effect(
-    effect: &str,
-    model: &TargetModel,
-    m: &Stats,
-    s: &SimStats,
-    sim: &Simulator,
-    steps: usize,
-) -> Option<(TargetModel, SimStats)> {
-    let mut cur = propose(effect, model, m, s, sim)?;
-    let mut cur_s = sim.run(&cur);
-    for _ in 0..steps {
-        let Some(next) = propose(effect, &cur, m, &cur_s, sim) else { break };
-        let next_s = sim.run(&next);
-        cur = next;
-        cur_s = next_s;
-    }
-    Some((cur, cur_s))
-}
-
-/// `model` with `effect`'s size multiplied by `f` (blur sigma or length, fall-off coefficients,
-/// PRNU or DSNU standard deviation).
-fn scaled(effect: &str, model: &TargetModel, f: f64) -> TargetModel {
-    let mut m = model.clone();
-    let o = &mut m.optics;
-    let e = &mut m.sensor.effects;
-    match effect {
-        "lens_blur" => o.lens_blur.iter_mut().for_each(|b| b.sigma_px *= f),
-        "motion_blur" => o.motion_blur.iter_mut().for_each(|b| b.length_px *= f),
-        "illumination_falloff" => o.illumination_falloff.iter_mut().for_each(|b| {
-            b.a *= f;
-            b.b *= f;
-        }),
-        "prnu" => e.prnu.std_fraction *= f,
-        "dsnu" => e.dsnu.std_e *= f,
-        _ => {}
-    }
-    m
-}
-
-/// Polishes the size of `effect` in `model` by minimising the total chi-square over a factor:
-/// three rounds of a parabola through the best factor and its neighbours at a shrinking step.
-fn polish_scale(
-    effect: &str,
-    model: TargetModel,
-    s: SimStats,
-    g: Gap,
-    m: &Stats,
-    sim: &Simulator,
-    tol: &Tolerance,
-) -> (TargetModel, SimStats, Gap) {
-    let eval = |f: f64| {
-        let c = scaled(effect, &model, f);
-        let cs = sim.run(&c);
-        let cg = stats::gap(m, &cs, tol);
-        (f, c, cs, cg)
-    };
-    let mut best = (1.0, model.clone(), s, g);
-    let mut step = 0.08;
-    for _ in 0..3 {
-        let lo = eval(best.0 - step);
-        let hi = eval(best.0 + step);
-        let (y0, y1, y2) = (lo.3.chi2, best.3.chi2, hi.3.chi2);
-        let curv = y0 - 2.0 * y1 + y2;
-        let mut tried = vec![lo, hi];
-        if curv > 0.0 {
-            let x = best.0 + step * (y0 - y2) / (2.0 * curv);
-            tried.push(eval(x.clamp(best.0 - 2.0 * step, best.0 + 2.0 * step).max(0.01)));
-        }
-        for t in tried {
-            if t.3.chi2 < best.3.chi2 {
-                best = t;
-            }
-        }
-        step /= 3.0;
-    }
-    (best.1, best.2, best.3)
 }
 
 fn evidence(before: &Gap, after: &Gap, penalty: f64) -> String {
@@ -263,74 +423,44 @@ fn evidence(before: &Gap, after: &Gap, penalty: f64) -> String {
     format!("chi2 drop {:.1} > penalty {:.1}; improved: {}", before.chi2 - after.chi2, penalty, improved.join(", "))
 }
 
-/// The greedy search from `start`.
+/// The greedy search from `start` ([`crate::search`]).
 #[must_use]
 pub fn search(m: &Stats, start: TargetModel, sim: &Simulator, tol: &Tolerance) -> TargetResult {
-    let n = m.len().max(2) as f64;
-    let initial_sim = sim.run(&start);
-    let gap_initial = stats::gap(m, &initial_sim, tol);
-    let (mut model, mut cur_s, mut cur_gap) = (start.clone(), initial_sim.clone(), gap_initial.clone());
-    let mut steps = Vec::new();
-    let mut trials = Vec::new();
-    let mut added: Vec<&str> = Vec::new();
-    for round in 1..=MAX_ROUNDS {
-        let mut best: Option<(&str, TargetModel, SimStats, Gap, f64)> = None;
-        for effect in CANDIDATES {
-            if added.contains(&effect) {
-                continue;
-            }
-            let Some((cand, cand_s)) = fit_effect(effect, &model, m, &cur_s, sim, POLISH_STEPS) else { continue };
-            let g = stats::gap(m, &cand_s, tol);
-            let penalty = PENALTY_FACTOR * param_count(effect) as f64 * n.ln();
-            let drop = cur_gap.chi2 - g.chi2;
-            trials.push(Trial {
-                round,
-                effect: effect.to_string(),
-                params: params(effect, &cand),
-                chi2_drop: drop,
-                penalty,
-                gap_after: g.gap,
-            });
-            if drop > penalty && best.as_ref().is_none_or(|b| drop > cur_gap.chi2 - b.3.chi2) {
-                best = Some((effect, cand, cand_s, g, penalty));
-            }
-        }
-        let Some((effect, cand, mut cand_s, mut g, penalty)) = best else { break };
-        let before = cur_gap.clone();
-        let mut refined = cand;
-        added.push(effect);
-        // Refit everything added so far against the new residuals (one increment, then the
-        // size by a parabola search), keeping a refit only if it lowers the chi-square.
-        for e in added.clone() {
-            if let Some((r, rs)) = fit_effect(e, &refined, m, &cand_s, sim, 0) {
-                let rg = stats::gap(m, &rs, tol);
-                if rg.chi2 < g.chi2 {
-                    refined = r;
-                    cand_s = rs;
-                    g = rg;
-                }
-            }
-            (refined, cand_s, g) = polish_scale(e, refined, cand_s, g, m, sim, tol);
-        }
-        steps.push(Step {
-            effect: effect.to_string(),
-            params: params(effect, &refined),
-            gap_before: before.gap,
-            gap_after: g.gap,
-            evidence: evidence(&before, &g, penalty),
-        });
-        model = refined;
-        cur_s = cand_s;
-        cur_gap = g;
-    }
+    let mut problem = ChartProblem { measured: m.clone(), sim: sim.clone(), tolerance: *tol };
+    let outcome = search::greedy(&mut problem, start.clone());
+    let (initial_sim, gap_initial) = outcome.start_sim;
+    let steps = outcome
+        .accepted
+        .iter()
+        .map(|a| Step {
+            effect: a.effect.to_string(),
+            params: effect(a.effect).map_or(serde_json::Value::Null, |e| e.params(&a.model)),
+            gap_before: a.before.1.gap,
+            gap_after: a.after.1.gap,
+            evidence: evidence(&a.before.1, &a.after.1, a.penalty),
+        })
+        .collect();
+    let trials = outcome
+        .trials
+        .iter()
+        .map(|t| Trial {
+            round: t.round,
+            effect: t.effect.to_string(),
+            params: effect(t.effect).map_or(serde_json::Value::Null, |e| e.params(&t.model)),
+            chi2_drop: t.chi2_drop,
+            penalty: t.penalty,
+            gap_after: t.sim.as_ref().map_or(f64::NAN, |(_, g)| g.gap),
+        })
+        .collect();
+    let (final_sim, gap_final) = outcome.sim;
     TargetResult {
         initial: start,
-        final_model: model,
+        final_model: outcome.model,
         measured: m.clone(),
         initial_sim,
-        final_sim: cur_s,
+        final_sim,
         gap_initial,
-        gap_final: cur_gap,
+        gap_final,
         steps,
         trials,
     }
