@@ -3,15 +3,15 @@
 //!
 //! ```text
 //! cargo run --release --example eval_render_noise -- eval        # the evaluator's setting
-//! cargo run --release --example eval_render_noise -- session-8   # the one before it (9 samples)
-//! cargo run --release --example eval_render_noise -- one-sample  # the one before that
+//! cargo run --release --example eval_render_noise -- unpooled    # 9 samples per anchor, not pooled
+//! cargo run --release --example eval_render_noise -- one-sample  # one sample per anchor, culling
 //! cargo run --release --example eval_render_noise -- converged   # 16 window samples, no culling
 //! cargo run --release --example eval_render_noise -- all-lights-4  # (or -1, -9) N samples, no culling
 //! ```
 //!
 //! Prints one JSON line: the setting and the per-scenario scores (time it with
 //! `/usr/bin/time`).
-//! docs/BENCHMARKS.md, "Render noise and ORB inliers" and "Session 9", has the figures.
+//! docs/BENCHMARKS.md, "Render noise and ORB inliers", has the figures.
 
 use scene_gen::camera_spec::CameraSpec;
 use scene_gen::evaluate::{
@@ -26,8 +26,8 @@ fn main() -> BoxResult<()> {
     let decoupled = ShadingRate::Decoupled { stride: EVAL_DECOUPLED_STRIDE, min_width_px: EVAL_DECOUPLED_MIN_WIDTH_PX };
     let render = match setting.as_str() {
         "eval" => eval_render_settings(),
-        // Session 8's evaluator: nine window samples per anchor, each anchor on its own, stride 3.
-        "session-8" => RenderSettings {
+        // Nine window samples per anchor, each anchor on its own, stride 3.
+        "unpooled" => RenderSettings {
             shading: ShadingRate::Adaptive { stride: 3, min_width_px: 0 },
             rect_samples_per_axis: 3,
             light_cull: 0.0,
@@ -51,7 +51,7 @@ fn main() -> BoxResult<()> {
         }
         other => {
             eprintln!(
-                "eval_render_noise: setting '{other}': expected eval, session-8, one-sample, \
+                "eval_render_noise: setting '{other}': expected eval, unpooled, one-sample, \
                  all-lights-1, all-lights-4, all-lights-9 or converged"
             );
             std::process::exit(2);

@@ -23,7 +23,7 @@ fn weighted(s: &Value, w: [f64; 4]) -> f64 {
 }
 
 #[test]
-fn a_session_answers_every_line_in_order_survives_bad_requests_and_caches() {
+fn a_server_answers_every_line_in_order_survives_bad_requests_and_caches() {
     let mut child = serve_cmd(&["--seeds", "0", "--frames", "2", "--max-width", "64"])
         .stdin(Stdio::piped())
         .stdout(Stdio::piped())

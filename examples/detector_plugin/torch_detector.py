@@ -20,7 +20,7 @@ import argparse
 import json
 import sys
 
-# scene-gen category ids (DESIGN.md): 1 sofa, 2 bed, 3 table, 4 chair, 5 bathtub, 6 basin,
+# scene-gen category ids (docs/CONTRACTS.md): 1 sofa, 2 bed, 3 table, 4 chair, 5 bathtub, 6 basin,
 # 7 computer, 8 plant, 9 lamp, 10 toy, 11 threshold.
 COCO_NAME_TO_SCENE_GEN = {
     "couch": 1, "bed": 2, "dining table": 3, "chair": 4, "sink": 6,

@@ -44,9 +44,8 @@ pub struct EvaluateArgs {
     /// the render time.
     #[arg(long, default_value_t = 0)]
     pub bounce_rays: u32,
-    /// Fill the shading anchors coarse to fine (`ShadingRate::Adaptive`): the evaluator's
-    /// default since session 8; the flag is accepted, and changes nothing, so older command
-    /// lines still run.
+    /// Fill the shading anchors coarse to fine (`ShadingRate::Adaptive`). The evaluator always
+    /// does; the flag is accepted and changes nothing.
     #[arg(long)]
     pub adaptive_anchors: bool,
     /// Add a `timing_s` breakdown to the output (not deterministic).

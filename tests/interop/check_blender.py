@@ -3,7 +3,7 @@ manifest.
 
     python tests/interop/check_blender.py SCENE.glb|SCENE.usda|SCENE.usdc [SCENE.json]
 
-The contract (DESIGN.md, src/export/gltf.rs): every object and threshold is a glTF node named
+The contract (docs/CONTRACTS.md, crates/export/src/gltf.rs): every object and threshold is a glTF node named
 `<class>_<id>` whose extras are {class, class_id, instance_id, room, room_type}; glTF is Y up in
 metres. Blender's importer turns Y up back into Z up and node extras into custom properties, so
 in Blender each labelled object must:

@@ -1,5 +1,5 @@
 //! Camera specs: a catalog sensor behind a lens, mounted on the agent, with the scenario
-//! exposure settings; from a TOML file or DESIGN.md's inline form
+//! exposure settings; from a TOML file or the inline form of docs/CONTRACTS.md
 //! `SENSOR[,focal_mm=F][,pitch_deg=P][,height_m=H]` (every field of [`CameraSpec`] may be
 //! given inline as `key=value`).
 //!
@@ -42,12 +42,12 @@ use scene_gen_scene::trajectory::Pose;
 /// Default focal length when a spec gives none, mm (a common wide M12 lens).
 pub const DEFAULT_FOCAL_MM: f32 = 4.0;
 
-/// Default exposure time, s. TaCOS keeps the exposure fixed (tacos_facts.md) without giving
+/// Default exposure time, s. TaCOS keeps the exposure fixed (docs/REFERENCE.md) without giving
 /// the value; 1/30 s is the longest exposure of a 30 fps video stream, the usual setting of a
 /// robot camera indoors (an assumption, stated here).
 pub const DEFAULT_EXPOSURE_S: f64 = 1.0 / 30.0;
 
-/// TaCOS scenario gains (DESIGN.md): 5 dB by day, 15 dB by night.
+/// The reference system's scenario gains (docs/REFERENCE.md, "Environment"): 5 dB by day, 15 dB by night.
 pub const DEFAULT_GAIN_DAY_DB: f64 = 5.0;
 pub const DEFAULT_GAIN_NIGHT_DB: f64 = 15.0;
 

@@ -3,7 +3,7 @@
 //!
 //! Why: the release binary targets baseline x86-64 (SSE2) so that it runs on every x86-64 CPU,
 //! yet building the whole crate with `-C target-cpu=x86-64-v3` gave bit-identical frames and
-//! saved 15–23 % of the render's CPU time (docs/BENCHMARKS.md, "Opt-in: AVX2 build"). The two
+//! saved 15–23 % of the render's CPU time (docs/BENCHMARKS.md, "Runtime AVX2 dispatch"). The two
 //! hot loops are therefore compiled twice, function-multiversioning style, and the clone is
 //! picked at run time:
 //!

@@ -100,7 +100,7 @@ pub const DEFAULT_FRAMES_PER_SCENE: u32 = 25;
 pub const DEFAULT_MAX_WIDTH_PX: u32 = 320;
 /// Default agent speed, m/s ([`trajectory::DEFAULT_SPEED_M_PER_S`], which says why).
 pub const DEFAULT_SPEED_M_S: f64 = trajectory::DEFAULT_SPEED_M_PER_S as f64;
-/// ORB features per frame (tacos_facts.md: 2000).
+/// ORB features per frame (the reference system's 2000, docs/REFERENCE.md).
 pub const ORB_FEATURES: usize = 2000;
 /// Pixel count the threshold visibility floor is given for (640 x 480).
 const VGA_PIXELS: f64 = 640.0 * 480.0;
@@ -119,10 +119,9 @@ pub const USABLE_MAX_CLIPPED_FRACTION: f64 = 0.5;
 pub const DEFAULT_MIN_USABLE_FRACTION: f64 = 0.5;
 
 /// Frames at least this wide are shaded at anchors ([`ShadingRate::Adaptive`]) by the evaluator:
-/// all of them. Full-rate shading made a 320 px candidate 8x dearer than anchors (session 8: 24
-/// against 3.0 user-s on the default camera, houses 0 and 1) for day / night inliers of 147 /
-/// 132 against 123 / 125 and the same AP; the setting of session 9 takes 2.4 user-s there for
-/// 118 / 120 (docs/BENCHMARKS.md, "Session 9").
+/// all of them. Full-rate shading makes a 320 px candidate about 10x dearer (24 against 2.4
+/// user-s on the default camera, houses 0 and 1) for day / night inliers of 147 / 132 against
+/// 118 / 120 and the same AP (docs/BENCHMARKS.md, "Adaptive anchors").
 pub const EVAL_DECOUPLED_MIN_WIDTH_PX: u32 = 0;
 /// Anchor spacing of the evaluator's decoupled shading, pixels.
 pub const EVAL_DECOUPLED_STRIDE: u32 = 4;
@@ -143,19 +142,17 @@ pub const EVAL_VISIBILITY_FILTER_RADIUS: u32 = 2;
 ///
 /// Why anchors: shadow rays and light selection are most of a frame's cost and nearly all of it
 /// is irradiance, which varies slowly over a surface, while texture and edges, which ORB and
-/// the detector see, are still sampled at every pixel (docs/BENCHMARKS.md, "Decoupled shading",
-/// "Adaptive anchors").
+/// the detector see, are still sampled at every pixel (docs/BENCHMARKS.md, "Adaptive anchors").
 ///
 /// Why pooled window samples and no roulette: the render's own noise must stay well below what
 /// the features and detections respond to. Since each view draws its own random numbers
 /// ([`scene_gen_render::Camera::view_key`]), render noise is new in every frame, as a real
 /// scene's is not, and it costs ORB inliers: on the default camera at 1936 px (seeds 0..2),
 /// one window sample and culling gave 103 day inliers per pair where 16 samples per anchor
-/// give 360. Nine samples per anchor at stride 3 (session 8) gave 307 in 38.7 s; four per
-/// anchor pooled over their neighbours at stride 4 give 341 (night 228 of 233) in 29.8 s
-/// (docs/BENCHMARKS.md, "Session 9").
+/// give 360. Four per anchor pooled over their neighbours at stride 4 give 341 (night 228 of
+/// 233) in 29.8 s (docs/BENCHMARKS.md, "Render noise and ORB inliers").
 ///
-/// Known problems (module docs, "Day versus night"): without bounce light, surfaces no sun or
+/// Known problems (module docs, "Known limits"): without bounce light, surfaces no sun or
 /// window reaches directly are black by day, so narrow cameras lose usable day frames; one
 /// bounce ray (`indirect_rays: 1`) restores them at about twice the CPU time. Set
 /// [`EvalConfig::render`] (and `render_name`) to use others; `scene-gen evaluate
@@ -195,7 +192,7 @@ pub struct FitnessWeights {
 }
 
 impl Default for FitnessWeights {
-    /// TaCOS (tacos_facts.md): 1, 1, 0.0025, 0.5.
+    /// The reference system's weights (docs/REFERENCE.md, "Tasks and score"): 1, 1, 0.0025, 0.5.
     fn default() -> Self {
         FitnessWeights { threshold: 1.0, ap50: 1.0, inliers: 0.0025, inlier_ratio: 0.5 }
     }

@@ -54,7 +54,7 @@
 //!
 //! `sensors` are the catalog's model names ordered by active area, smallest first (the order
 //! in which the TaCOS GA mutates the sensor gene); the gene ranges are TaCOS's design space
-//! (reference/tacos_facts.md).
+//! (docs/REFERENCE.md, "Genetic algorithm").
 //!
 //! **Errors** are responses too, in their place in the order; the server never stops on a bad
 //! request:
@@ -89,9 +89,9 @@ use scene_gen_core::seeds::SeedRange;
 /// The protocol version every `describe` response names.
 pub const PROTOCOL: &str = "scene-gen/serve/1";
 
-/// TaCOS's focal-length gene range, mm (reference/tacos_facts.md: 1..20 mm).
+/// TaCOS's focal-length gene range, mm (docs/REFERENCE.md: 1..20 mm).
 pub const FOCAL_RANGE_MM: [f64; 2] = [1.0, 20.0];
-/// TaCOS's pitch gene range, degrees (reference/tacos_facts.md: -30..30 deg).
+/// TaCOS's pitch gene range, degrees (docs/REFERENCE.md: -30..30 deg).
 pub const PITCH_RANGE_DEG: [f64; 2] = [-30.0, 30.0];
 
 /// Most seeds one request may name: a typo like `0..1000000000` must be a bad request, not
@@ -296,7 +296,7 @@ pub struct ErrorResponse {
     pub error: ErrorBody,
 }
 
-/// Counts of one session, for the caller's log.
+/// Counts of one run of the server, for the caller's log.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct ServeSummary {
     /// Requests answered (blank lines excluded).
@@ -422,7 +422,7 @@ pub fn describe(id: Value, defaults: &ServeDefaults, catalog: &Catalog) -> Descr
 ///
 /// # Errors
 /// `bad_camera`/`bad_request` when the evaluator refuses the input, `failure` when it fails
-/// while working or panics (the panic is caught: one candidate must not end the session).
+/// while working or panics (the panic is caught: one candidate must not end the run).
 pub fn run_job(id: Value, job: &Job) -> Result<EvalResponse, RequestError> {
     let start = Instant::now();
     let config = job.config();
@@ -483,29 +483,41 @@ pub struct Answer {
     pub ok: bool,
 }
 
-/// The response to one input line (`line_no` 1-based), or `None` for a blank line.
-#[must_use]
-pub fn respond(text: &str, line_no: u64, defaults: &ServeDefaults, catalog: &Catalog) -> Option<Answer> {
-    let fail = |id: Value, e: RequestError| Some(Answer { json: error_line(id, line_no, e), ok: false });
+/// What a request line asks for, checked and completed with the defaults.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Parsed {
+    Describe,
+    Evaluate(Job),
+}
+
+/// Parses and checks one request line: `Ok(None)` for a blank line, else the request with its
+/// id, or the error with the id recovered as far as the line allows (for its answer).
+///
+/// # Errors
+/// A line that is not a JSON object, a request with an unknown or bad field, or an evaluate
+/// request whose camera, seeds or numbers are bad; never an evaluation.
+pub fn parse_request(
+    text: &str,
+    defaults: &ServeDefaults,
+    catalog: &Catalog,
+) -> Result<Option<(Value, Parsed)>, (Value, RequestError)> {
     let text = text.trim();
     if text.is_empty() {
-        return None;
+        return Ok(None);
     }
-    let value: Value = match serde_json::from_str(text) {
-        Ok(v) => v,
-        Err(e) => return fail(Value::Null, RequestError::bad_request(format!("not JSON: {e}"))),
-    };
+    let value: Value =
+        serde_json::from_str(text).map_err(|e| (Value::Null, RequestError::bad_request(format!("not JSON: {e}"))))?;
     let Value::Object(map) = value else {
-        return fail(Value::Null, RequestError::bad_request("a request is a JSON object"));
+        return Err((Value::Null, RequestError::bad_request("a request is a JSON object")));
     };
     // The id is recovered before the full parse so even a request with a bad field is answered
     // under its own id.
     let id = map.get("id").cloned().unwrap_or(Value::Null);
     let request: Request = match serde_json::from_value(Value::Object(map)) {
         Ok(r) => r,
-        Err(e) => return fail(id, RequestError::bad_request(e.to_string())),
+        Err(e) => return Err((id, RequestError::bad_request(e.to_string()))),
     };
-    let answer = match request.op {
+    let parsed = match request.op {
         Op::Describe => {
             if request.camera.is_some()
                 || request.seeds.is_some()
@@ -513,14 +525,30 @@ pub fn respond(text: &str, line_no: u64, defaults: &ServeDefaults, catalog: &Cat
                 || request.max_width.is_some()
                 || request.weights.is_some()
             {
-                Err(RequestError::bad_request("describe takes no fields besides `id` and `op`"))
-            } else {
-                Ok(ok_line(&describe(id.clone(), defaults, catalog), id.clone(), line_no))
+                return Err((id, RequestError::bad_request("describe takes no fields besides `id` and `op`")));
             }
+            Parsed::Describe
         }
-        Op::Evaluate => job_of(&request, defaults, catalog)
-            .and_then(|job| run_job(id.clone(), &job))
-            .map(|r| ok_line(&r, id.clone(), line_no)),
+        Op::Evaluate => match job_of(&request, defaults, catalog) {
+            Ok(job) => Parsed::Evaluate(job),
+            Err(e) => return Err((id, e)),
+        },
+    };
+    Ok(Some((id, parsed)))
+}
+
+/// The response to one input line (`line_no` 1-based), or `None` for a blank line.
+#[must_use]
+pub fn respond(text: &str, line_no: u64, defaults: &ServeDefaults, catalog: &Catalog) -> Option<Answer> {
+    let fail = |id: Value, e: RequestError| Some(Answer { json: error_line(id, line_no, e), ok: false });
+    let (id, parsed) = match parse_request(text, defaults, catalog) {
+        Ok(None) => return None,
+        Ok(Some(request)) => request,
+        Err((id, e)) => return fail(id, e),
+    };
+    let answer = match parsed {
+        Parsed::Describe => Ok(ok_line(&describe(id.clone(), defaults, catalog), id.clone(), line_no)),
+        Parsed::Evaluate(job) => run_job(id.clone(), &job).map(|r| ok_line(&r, id.clone(), line_no)),
     };
     match answer {
         Ok(json) => Some(Answer { json, ok: true }),

@@ -140,6 +140,48 @@ pub struct Outcome<M, S> {
     pub trials: Vec<Trial<M, S>>,
 }
 
+/// A fitted candidate of one round.
+struct Proposal<P: Problem + 'static> {
+    effect: &'static dyn Effect<P>,
+    model: P::Model,
+    /// Its simulation, when settling the fit made one.
+    sim: Option<P::Sim>,
+}
+
+/// Every candidate of a round fitted on `model`, in the problem's order.
+fn proposals<P: Problem + 'static>(
+    problem: &P,
+    model: &P::Model,
+    sim: &P::Sim,
+    added: &[&'static str],
+) -> Vec<Proposal<P>> {
+    problem
+        .effects()
+        .iter()
+        .filter(|effect| problem.is_candidate(**effect, model, added))
+        .filter_map(|&effect| {
+            let (model, sim) = problem.propose(effect, model, sim)?;
+            Some(Proposal { effect, model, sim })
+        })
+        .collect()
+}
+
+/// Which proposals are simulated in full (all, unless the problem screens them), and the
+/// screened drops of the others.
+fn screen<P: Problem + 'static>(problem: &P, model: &P::Model, proposals: &[Proposal<P>]) -> (Vec<bool>, Vec<f64>) {
+    let models: Vec<P::Model> = proposals.iter().map(|p| p.model.clone()).collect();
+    let mut full = vec![true; proposals.len()];
+    let Some((drops, keep)) = problem.screen(model, &models).filter(|(_, keep)| proposals.len() > *keep) else {
+        return (full, vec![f64::NAN; proposals.len()]);
+    };
+    let mut order: Vec<usize> = (0..proposals.len()).collect();
+    order.sort_by(|&a, &b| drops[b].total_cmp(&drops[a]).then(a.cmp(&b)));
+    for &i in &order[keep..] {
+        full[i] = false;
+    }
+    (full, drops)
+}
+
 /// The greedy search from `start` (see the module docs).
 pub fn greedy<P: Problem + 'static>(problem: &mut P, start: P::Model) -> Outcome<P::Model, P::Sim> {
     let start_sim = problem.simulate(&start);
@@ -149,46 +191,28 @@ pub fn greedy<P: Problem + 'static>(problem: &mut P, start: P::Model) -> Outcome
     let mut trials: Vec<Trial<P::Model, P::Sim>> = Vec::new();
     let mut added: Vec<&'static str> = Vec::new();
     for round in 1..=problem.max_rounds() {
-        let mut proposals: Vec<(&'static dyn Effect<P>, P::Model, Option<P::Sim>)> = Vec::new();
-        for &effect in problem.effects() {
-            if !problem.is_candidate(effect, &model, &added) {
-                continue;
-            }
-            if let Some((proposal, proposal_sim)) = problem.propose(effect, &model, &sim) {
-                proposals.push((effect, proposal, proposal_sim));
-            }
-        }
-        let models: Vec<P::Model> = proposals.iter().map(|(_, m, _)| m.clone()).collect();
-        let screened = problem.screen(&model, &models).filter(|(_, keep)| proposals.len() > *keep);
-        let mut full = vec![true; proposals.len()];
-        if let Some((drops, keep)) = &screened {
-            let mut order: Vec<usize> = (0..proposals.len()).collect();
-            order.sort_by(|&a, &b| drops[b].total_cmp(&drops[a]).then(a.cmp(&b)));
-            for &i in &order[*keep..] {
-                full[i] = false;
-            }
-        }
+        let proposals = proposals(problem, &model, &sim, &added);
+        let (full, screened_drops) = screen(problem, &model, &proposals);
         let chi2 = P::chi2(&sim);
-        let mut best: Option<usize> = None;
         let first = trials.len();
-        for (i, (effect, proposal, proposal_sim)) in proposals.into_iter().enumerate() {
-            let penalty = effect.penalty_factor() * effect.param_count() as f64 * ln_n;
+        let mut best: Option<usize> = None;
+        for (i, p) in proposals.into_iter().enumerate() {
+            let penalty = p.effect.penalty_factor() * p.effect.param_count() as f64 * ln_n;
             let (chi2_drop, full_sim) = if full[i] {
-                let s = proposal_sim.unwrap_or_else(|| problem.simulate(&proposal));
+                let s = p.sim.unwrap_or_else(|| problem.simulate(&p.model));
                 (chi2 - P::chi2(&s), Some(s))
             } else {
-                (screened.as_ref().map_or(f64::NAN, |(d, _)| d[i]), None)
+                (screened_drops[i], None)
             };
-            if full_sim.is_some() && chi2_drop > penalty && best.is_none_or(|b: usize| chi2_drop > trials[b].chi2_drop)
-            {
+            if full_sim.is_some() && chi2_drop > penalty && best.is_none_or(|b| chi2_drop > trials[b].chi2_drop) {
                 best = Some(first + i);
             }
-            trials.push(Trial { round, effect: effect.name(), chi2_drop, penalty, model: proposal, sim: full_sim });
+            trials.push(Trial { round, effect: p.effect.name(), chi2_drop, penalty, model: p.model, sim: full_sim });
         }
         let Some(b) = best else { break };
-        let trial: &Trial<P::Model, P::Sim> = &trials[b];
-        let effect = trial.effect;
-        let (candidate, candidate_sim) = (trial.model.clone(), trial.sim.clone().expect("a full trial"));
+        let trial = &trials[b];
+        let (effect, candidate) = (trial.effect, trial.model.clone());
+        let candidate_sim = trial.sim.clone().expect("the best trial was simulated in full");
         let param_count = problem.effects().iter().find(|e| e.name() == effect).map_or(0, |e| e.param_count());
         added.push(effect);
         let before = std::mem::replace(&mut sim, candidate_sim.clone());

@@ -181,6 +181,16 @@ impl AssetMesh {
     }
 }
 
+/// Whether an MTL file has a colour line (`Ka`, `Kd`, `Ks`, `Ke`) with fewer than three
+/// numbers. tobj 4.0 panics on one (`parse_float3` unwraps a short array) where it returns an
+/// error for any other malformed line, so such a file is treated as broken before it is parsed.
+fn has_short_colour(mtl: &[u8]) -> bool {
+    String::from_utf8_lossy(mtl).lines().any(|line| {
+        let mut words = line.split_whitespace();
+        matches!(words.next(), Some("Ka" | "Kd" | "Ks" | "Ke")) && words.take(3).count() < 3
+    })
+}
+
 /// Reads `obj` (an OBJ file of a library) with its `mtllib` taken from `siblings`.
 ///
 /// `surface_of` turns an OBJ material name (or `None` for faces without a known material)
@@ -196,6 +206,7 @@ pub fn load_obj(
     let loader = |mtl: &std::path::Path| {
         let wanted = dir.join(mtl);
         match siblings.iter().find(|f| f.path == wanted) {
+            Some(file) if has_short_colour(&file.bytes) => Err(tobj::LoadError::MaterialParseError),
             Some(file) => tobj::load_mtl_buf(&mut file.bytes.as_slice()),
             None => Err(tobj::LoadError::OpenFileFailed),
         }
@@ -320,6 +331,18 @@ mod tests {
         assert_eq!(mesh.min.z, 0.0);
         assert!((mesh.min.x + mesh.max.x).abs() < 1e-6 && (mesh.min.y + mesh.max.y).abs() < 1e-6);
         assert_eq!(mesh.triangle_count(), 1 + 2);
+    }
+
+    #[test]
+    fn a_colour_with_two_numbers_breaks_the_mtl_not_the_process() {
+        let obj = file("lib/x/q.obj", QUAD_Y_UP);
+        let mtl = file("lib/x/q.mtl", "newmtl Wood_Old\nKd 1 0\nnewmtl wood\nKd 0 1 0\n");
+        let (mesh, _) = load_obj(&obj, &[obj.clone(), mtl], UpAxis::Z, |n| {
+            assert!(n.is_none(), "a broken MTL gives no material names, got {n:?}");
+            "plastic".to_string()
+        })
+        .unwrap();
+        assert_eq!(mesh.triangle_count(), 3);
     }
 
     #[test]

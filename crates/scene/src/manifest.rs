@@ -1,4 +1,4 @@
-//! The manifest `scene.json`: the semantic view of a [`Scene`] as DESIGN.md's contract
+//! The manifest `scene.json`: the semantic view of a [`Scene`] as the contract of docs/CONTRACTS.md
 //! defines it. Other programs read this file; change its shape only with a schema bump.
 
 use serde::{Deserialize, Serialize};

@@ -44,8 +44,8 @@ use scene_gen_core::rng;
 
 /// Free width kept beside a door on each side, beyond its own width.
 pub const DOOR_MARGIN_M: f32 = 0.3;
-/// Depth kept free in front of a door, from the wall's inner face. The brief asks for at least
-/// 0.5 m; 1.0 m leaves room to turn through a door.
+/// Depth kept free in front of a door, from the wall's inner face. At least 0.5 m lets
+/// the agent reach the door; 1.0 m leaves room to turn through it.
 pub const DOOR_CLEAR_DEPTH_M: f32 = 1.0;
 /// Width of the agent that must be able to walk between the doors of a room (0.8 m: a
 /// common minimum clear passage width in building codes).

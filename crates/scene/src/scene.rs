@@ -8,7 +8,7 @@
 //!   that place a mesh in the world and say which semantic item it belongs to. Renderers and
 //!   exporters read only this, plus the lights.
 //!
-//! Everything is in the world frame of DESIGN.md: metres, right-handed, Z up, X east, Y north,
+//! Everything is in the world frame of docs/CONTRACTS.md: metres, right-handed, Z up, X east, Y north,
 //! floor at z = 0. Nothing downstream mutates a `Scene`.
 
 use glam::{Mat4, Vec2, Vec3};

@@ -25,7 +25,7 @@ use crate::materials::{MaterialCatalog, UnknownSurface};
 use crate::scene::{Geometry, Mesh, Node, OpeningKind, Primitive, Semantic, Threshold, Wall};
 
 /// Threshold heights drawn, metres: low enough to step over, high enough for a camera to have
-/// to notice (the TaCOS gold obstacles, see reference/tacos_facts.md).
+/// to notice (the reference system's gold obstacles, docs/REFERENCE.md, "Environment").
 pub const THRESHOLD_HEIGHT_M: (f32, f32) = (0.02, 0.05);
 /// Threshold ends stop this short of the door jambs so no face is coplanar with a jamb.
 const THRESHOLD_END_INSET_M: f32 = 0.002;

@@ -44,7 +44,7 @@ pub struct BakedTexture {
 /// A texture's PNG file, encoded on first use and then shared by every clone (like
 /// [`std::sync::LazyLock`], it dereferences to the bytes). Only exporters read it: encoding
 /// every texture when it was baked cost each `evaluate` or `render` process about half a CPU
-/// second of deflate (perf, session 8) for files it never wrote.
+/// second of deflate (perf) for files it never wrote.
 #[derive(Clone)]
 pub struct Png(Arc<PngCell>);
 

@@ -11,7 +11,7 @@
 //! edge functions are re-evaluated in f64 when they are exactly zero in f32, as the paper does.
 //!
 //! obvhs builds the tree; rays walk a copy of it with exact `f32` child boxes tested four lanes
-//! at a time ([`crate::wide`] says why), single rays here and coherent rays in packets
+//! at a time (the `wide` module says why), single rays here and coherent rays in packets
 //! ([`crate::packet`]). The build is sequential (obvhs' `parallel` feature is off), so the
 //! tree, and with it which of two coincident triangles a ray reports, is the same on every run
 //! and thread count.
@@ -83,7 +83,7 @@ pub struct Hit {
 
 /// Triangles in one BVH, in the BVH's primitive order (what [`Hit::triangle`] indexes).
 pub struct Bvh {
-    /// obvhs' tree with exact `f32` child boxes ([`crate::wide`]); `None` without triangles.
+    /// obvhs' tree with exact `f32` child boxes (the `wide` module); `None` without triangles.
     wide: Option<WideBvh>,
     /// Triangle corners in BVH primitive order.
     tris: Vec<[Vec3A; 3]>,
@@ -167,7 +167,7 @@ impl Bvh {
     /// same watertight test and ray interval as the traversal's leaves, and any triangle of the
     /// BVH that the ray hits before `tmax` blocks it, so a hint never hides a blocker. Nor does
     /// it find one the walk would miss: the walk over exact boxes is conservative
-    /// ([`crate::wide`]), where obvhs' quantised box test dropped a few grazing rays (a sun ray
+    /// (the `wide` module), where obvhs' quantised box test dropped a few grazing rays (a sun ray
     /// leaving a wall 0.01 mm below a flat ceiling) that only the hint then caught. An
     /// out-of-range hint (such as [`NO_TRIANGLE`]) is skipped.
     #[must_use]

@@ -32,7 +32,7 @@ pub fn lane3(v: &Lanes3, k: usize) -> Vec3 {
 /// `if c { a } else { b }`: LLVM turned stores of such nested choices into AVX masked stores
 /// (`vmaskmovps`, one per arm), which AMD cores run as slow microcode; with no branch to see,
 /// it stores a blend. The same value bit for bit; in the other loops, the same code (the
-/// instructions of an image, and of the ray batches, within 0.01 %: callgrind, session 15).
+/// instructions of an image, and of the ray batches, within 0.01 % by callgrind).
 #[must_use]
 #[inline(always)]
 pub fn select(c: bool, a: f32, b: f32) -> f32 {

@@ -4,7 +4,7 @@
 //!
 //! * [`SensorModel`]: the physical linear camera model of EMVA 1288 (release 4, section 2),
 //!   driven by catalog parameters, with each departure from it an effect that can be switched
-//!   on and parameterised under the effect names of DESIGN.md. A model is plain serde data, so
+//!   on and parameterised under the effect names of docs/CONTRACTS.md. A model is plain serde data, so
 //!   it round-trips through a `model.toml`.
 //! * [`AffineNoise`]: the reference paper's per-channel affine model on 8-bit values,
 //!   `var = g sigma_p^2 I + g^2 sigma_t^2`.
@@ -40,10 +40,10 @@ use super::catalog::Sensor;
 use scene_gen_core::rng;
 use scene_gen_core::simd::Dispatch;
 
-/// Effects of DESIGN.md's list that belong to the optics, not to this model.
+/// Effects of the effect list (docs/CONTRACTS.md) that belong to the optics, not to this model.
 pub const OPTICS_EFFECTS: [&str; 3] = ["illumination_falloff", "lens_blur", "motion_blur"];
 
-/// Effects this model handles, in DESIGN.md's names.
+/// Effects this model handles, by their names in docs/CONTRACTS.md.
 pub const SENSOR_EFFECTS: [&str; 11] = [
     "black_level",
     "dark_current",
@@ -201,7 +201,7 @@ off_by_default!(
     },
 );
 
-/// Every effect, by its DESIGN.md name.
+/// Every effect, by its name in docs/CONTRACTS.md.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct Effects {
@@ -219,7 +219,7 @@ pub struct Effects {
 }
 
 impl Effects {
-    /// Names of the effects switched on, in DESIGN.md order.
+    /// Names of the effects switched on, in the order of docs/CONTRACTS.md.
     #[must_use]
     pub fn enabled_names(&self) -> Vec<&'static str> {
         let on = [
@@ -1054,7 +1054,7 @@ pub fn floor_exact(x: f64) -> f64 {
 
 /// The reference paper's affine noise model on 8-bit values, per colour channel:
 /// `var(I) = g sigma_p2 I + g^2 sigma_t2`, with `g = 10^((G - G0)/20) * (A_ref / A)` (linear
-/// gain ratio times the pixel-area ratio, tacos_facts.md).
+/// gain ratio times the pixel-area ratio, docs/REFERENCE.md).
 ///
 /// `sigma_p2` and `sigma_t2` are variance coefficients: the released code (AddNoise.py) adds
 /// noise of variance `sigma_p I + sigma_t` although it calls them sigma, so the released numbers
@@ -1080,7 +1080,7 @@ impl Default for AffineNoise {
 
 impl AffineNoise {
     /// The released FLIR Flea3 (IMX172) coefficients at G0 = 15 dB, reference pixel area 2.4
-    /// um^2 (1.55 um pitch). Source: TaCOS AddNoise.py as summarised in tacos_facts.md
+    /// um^2 (1.55 um pitch). Source: TaCOS AddNoise.py as summarised in docs/REFERENCE.md
     /// (B, G, R: sigma_p = 0.24, 0.12, 0.29; sigma_t = 1.82, 0.91, 3.2).
     #[must_use]
     pub fn flir_imx172() -> Self {
@@ -1088,7 +1088,7 @@ impl AffineNoise {
     }
 
     /// The affine coefficients of a camera measured with EMVA 1288 at its own gain and bit
-    /// depth (DESIGN.md): `sigma_p^2 = K`, `sigma_t^2 = K^2 sigma_d^2 + 1/12`, same for every
+    /// depth (docs/REFERENCE.md, "Camera and noise"): `sigma_p^2 = K`, `sigma_t^2 = K^2 sigma_d^2 + 1/12`, same for every
     /// channel; values are in the measured camera's DN, not 8-bit.
     #[must_use]
     pub fn from_emva(k_dn_per_e: f64, dark_noise_e: f64, gain_db: f64, pixel_area_um2: f64) -> Self {

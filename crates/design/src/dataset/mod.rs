@@ -7,8 +7,9 @@
 //!
 //! 1. [`Dataset::run_seed`] generates the house of one seed (default generator settings), plans
 //!    the agent's walk ([`scene_gen_scene::trajectory`]) at the camera height, picks poses with
-//!    [`FrameSelection`], and per pose renders ONE trace that serves day and night (lights
-//!    scaled to 20 / 2 lux as [`crate::evaluate::scenario_light_scales`] does). Per pose it
+//!    [`FrameSelection`], and per pose renders, through the capture stage
+//!    ([`scene_gen_camera::capture::Capture`]), ONE trace that serves day and night (lights
+//!    scaled to 20 / 2 lux as in `render` and `evaluate`). Per pose it
 //!    writes the sensor image of each lighting, the depth, the instance mask and the pose's
 //!    labels; then the seed's **fragment** `fragments/seed_S.json`.
 //! 2. [`Shard`] picks a machine's seeds (seed number in the range mod N);

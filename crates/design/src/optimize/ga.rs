@@ -1,4 +1,4 @@
-//! The TaCOS genetic algorithm (reference/tacos_facts.md): truncation selection of the
+//! The TaCOS genetic algorithm (docs/REFERENCE.md, "Genetic algorithm"): truncation selection of the
 //! `parents` best, `elites` survivors, offspring by uniform crossover of two parents, then
 //! multiplicative and additive mutation with clipping; the sensor index moves by a bounded
 //! number of steps in area order.

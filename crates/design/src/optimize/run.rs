@@ -109,7 +109,7 @@ impl RunError {
 /// Progress after each candidate.
 #[derive(Clone, Copy, Debug)]
 pub struct Progress {
-    /// Evaluations done (including those of an earlier, resumed session).
+    /// Evaluations done (including those of an earlier run this one resumed).
     pub evaluations: usize,
     /// Evaluations of the whole run.
     pub budget: usize,

@@ -19,7 +19,7 @@
 //! * DSNU and PRNU from the averaged stacks: spatial variance of the L-frame mean minus the
 //!   residual temporal variance `sigma^2 / L`; also after a 5x5 box high-pass;
 //! * the reference paper's affine coefficients at the measured gain, `sigma_p^2 = K` and
-//!   `sigma_t^2 = K^2 sigma_d^2 + 1/12` (DESIGN.md).
+//!   `sigma_t^2 = K^2 sigma_d^2 + 1/12` (docs/REFERENCE.md, "Camera and noise").
 
 pub mod emva;
 pub mod ptc;

@@ -5,7 +5,7 @@
 //! 1. Start model: the EMVA 1288 linear model fitted to the data (K, read noise, QE from
 //!    [`crate::calibration`]; K and the read noise then refined by simulation so the photon
 //!    transfer and the dark variance match, which also undoes the bias of dark frames clipped
-//!    at 0 DN), every effect of DESIGN.md off except quantization; or a given model.
+//!    at 0 DN), every effect of docs/CONTRACTS.md off except quantization; or a given model.
 //! 2. The acquisition is simulated block by block with [`SensorModel::simulate_with`] (the
 //!    renderer's code path): same exposures, photons per pixel, frame counts and image size;
 //!    fixed seeds, the same for every candidate model (common random numbers, so candidates

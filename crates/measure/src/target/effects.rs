@@ -1,4 +1,4 @@
-//! Image effects of the optics the loop can add, under DESIGN.md's names, applied to the photon
+//! Image effects of the optics the loop can add, under their names in docs/CONTRACTS.md, applied to the photon
 //! image before the sensor (a lens blurs and shades the light, not the noise):
 //!
 //! * `lens_blur`: an isotropic Gaussian PSF of `sigma_px`.

@@ -70,7 +70,7 @@
 //! day score above night: the noise and contrast of step 2 are measurements, and the figures
 //! below come from fixing what they measured.
 //!
-//! # Day and night (issue 5)
+//! # Day and night
 //!
 //! On the evaluator's default camera (IMX174, 4 mm, pitch -10 deg, houses 0 and 1, 25
 //! anchors, 320 px) this model used to score AP@0.5 0.74 by day and 0.97 at night. The noise

@@ -32,7 +32,7 @@ use super::coco_eval::GtAnnotation;
 use scene_gen_render::{Camera, Frame};
 use scene_gen_scene::scene::Scene;
 
-/// Default distance cut: TaCOS counted objects within 6 m (reference/tacos_facts.md).
+/// Default distance cut: TaCOS counted objects within 6 m (docs/REFERENCE.md, "Tasks and score").
 pub const DEFAULT_MAX_DISTANCE_M: f32 = 6.0;
 
 /// Default visible-pixel floor at 640 x 480: 100 px (a 10 x 10 patch, about 0.03 % of the

@@ -1,6 +1,6 @@
 //! Threshold accuracy: did the camera see each threshold shortly before the agent crossed it?
 //!
-//! TaCOS (reference/tacos_facts.md): "a threshold counts as seen if it was on screen within
+//! The reference system (docs/REFERENCE.md, "Tasks and score"): "a threshold counts as seen if it was on screen within
 //! 0.5 s before the agent crossed it; accuracy = seen / (seen + missed)". "On screen" is made
 //! concrete here as at least [`ThresholdConfig::min_visible_px`] visible pixels of the
 //! threshold's instance in one frame whose time lies in `[t_cross - window_s, t_cross]`

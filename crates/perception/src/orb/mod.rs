@@ -9,9 +9,8 @@
 //! atan2, half-to-even rounding) so keypoints and descriptors agree with OpenCV's, not just
 //! resemble them: on the interop images 100 % of keypoints, angles and descriptors match.
 //! Keypoints come out in a different order than OpenCV's (which follows its selection
-//! algorithm), so cross-check ties between equal distances can pick different partners. The facts are in
-//! `/work/shared/reference/orb_opencv_facts.md`; `tests/interop/check_orb.sh` measures the
-//! agreement.
+//! algorithm), so cross-check ties between equal distances can pick different partners.
+//! `tests/interop/check_orb.sh` measures the agreement against OpenCV itself.
 //!
 //! ```
 //! use scene_gen::orb::Orb;
