@@ -807,7 +807,7 @@ impl<'a> Renderer<'a> {
 #[inline(always)]
 fn finite_radiance(l: GroupRgb) -> GroupRgb {
     // Element by element, not `array::map`: its `try_map` stayed out of line, compiled for the
-    // baseline CPU, and was 3 % of a 4-spp image (perf, session 14).
+    // baseline CPU, and was 3 % of a 4-spp image (perf).
     let finite = |c: Vec3| if c.is_finite() { c.max(Vec3::ZERO) } else { Vec3::ZERO };
     [finite(l[0]), finite(l[1])]
 }

@@ -31,7 +31,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use super::lights::{Blockers, RectShare, luminance};
-use super::tile::{Cells, Job, TILE};
+use super::tile::{BandSink, Cells, Job, TILE};
 use super::{AnchorGrid, Camera, Frame, Guide, PixelOut, Renderer};
 
 /// Largest spread (max - min) of the neighbouring coarse anchors' night irradiance luminance,
@@ -204,7 +204,7 @@ impl Renderer<'_> {
         at: Cells<'_>,
     ) -> Vec<(PixelOut, Option<Guide>)> {
         let mut anchors = vec![(PixelOut::default(), None); cols as usize * rows as usize];
-        let bands: Vec<&mut [(PixelOut, Option<Guide>)]> = anchors.chunks_mut(cols as usize * TILE as usize).collect();
+        let bands = anchors.chunks_mut(cols as usize * TILE as usize).map(BandSink::Cells).collect();
         self.trace_grid(camera, (cols, rows), at, Job::Anchor, bands);
         anchors
     }

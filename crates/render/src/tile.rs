@@ -89,6 +89,44 @@ pub(super) enum Job<'g> {
     Samples,
 }
 
+/// The part of the tile loop a job runs, as a const parameter of [`Renderer::trace_tile`]: each
+/// build compiles one function per part, so LLVM optimises three functions of a third of the
+/// size, in separate units, instead of one that inlines every job (which had the render crate
+/// compile on one core for most of its build).
+const LABELS: u8 = 0;
+/// One shaded ray per pixel ([`Job::Shade`], [`Job::Anchor`]).
+const SHADE: u8 = 1;
+/// Several samples per pixel ([`Job::Samples`]).
+const SAMPLES: u8 = 2;
+
+impl Job<'_> {
+    /// The part of the tile loop that runs this job.
+    #[inline(always)]
+    fn kind(self) -> u8 {
+        match self {
+            Job::Ids | Job::Labels => LABELS,
+            Job::Shade(_) | Job::Anchor => SHADE,
+            Job::Samples => SAMPLES,
+        }
+    }
+}
+
+/// One build of the tile loop (the baseline, or the AVX2 clone): its tile function for each
+/// kind of job, compiled for that build's CPU features.
+pub(super) trait Build {
+    /// [`Renderer::trace_tile`] of `job`'s kind.
+    #[allow(clippy::too_many_arguments)]
+    fn tile(
+        r: &Renderer<'_>,
+        camera: &Camera,
+        cells: &[(usize, (u32, u32))],
+        job: Job<'_>,
+        packet: &mut RayPacket,
+        scratch: &mut Scratch,
+        sink: &mut BandSink<'_>,
+    );
+}
+
 /// Which pixel each cell of a traced grid is: a plain `enum` with an `#[inline(always)]` method,
 /// not a closure, because a closure called from both builds of the tile loop is compiled once,
 /// out of line, for the baseline. With the `dyn` sink and the per-tile `Vec` it replaced, that
@@ -122,15 +160,26 @@ impl Cells<'_> {
 
 /// Where the finished pixels of one band of tiles go: `slot` counts row-major from the band's
 /// first cell.
-pub(super) trait BandSink: Send {
-    fn put(&mut self, slot: usize, pixel: PixelOut, guide: Option<Guide>);
+///
+/// An `enum`, not a trait the tile loop is generic over: the loop is inlined down to the
+/// triangle test and compiled once per build (baseline and AVX2), and one instance per sink
+/// type tripled the render crate's compile time. The sink of a band never changes, so the
+/// match in [`BandSink::put`] is a branch the CPU always predicts.
+pub(super) enum BandSink<'f> {
+    /// Cells with their guides (the anchors of decoupled shading).
+    Cells(&'f mut [(PixelOut, Option<Guide>)]),
+    Frame(FrameBand<'f>),
+    Ids(IdBand<'f>),
 }
 
-/// Cells with their guides (the anchors of decoupled shading).
-impl BandSink for &mut [(PixelOut, Option<Guide>)] {
+impl BandSink<'_> {
     #[inline(always)]
     fn put(&mut self, slot: usize, pixel: PixelOut, guide: Option<Guide>) {
-        self[slot] = (pixel, guide);
+        match self {
+            BandSink::Cells(cells) => cells[slot] = (pixel, guide),
+            BandSink::Frame(band) => band.put(slot, pixel),
+            BandSink::Ids(band) => band.put(slot, pixel),
+        }
     }
 }
 
@@ -145,9 +194,9 @@ pub(super) struct FrameBand<'f> {
     normal: &'f mut [[f32; 3]],
 }
 
-impl BandSink for FrameBand<'_> {
+impl FrameBand<'_> {
     #[inline(always)]
-    fn put(&mut self, slot: usize, p: PixelOut, _: Option<Guide>) {
+    fn put(&mut self, slot: usize, p: PixelOut) {
         self.day_nit[slot] = p.radiance[0].to_array();
         self.night_nit[slot] = p.radiance[1].to_array();
         self.depth_m[slot] = p.depth_m;
@@ -164,9 +213,9 @@ pub(super) struct IdBand<'f> {
     class_id: &'f mut [u16],
 }
 
-impl BandSink for IdBand<'_> {
+impl IdBand<'_> {
     #[inline(always)]
-    fn put(&mut self, slot: usize, p: PixelOut, _: Option<Guide>) {
+    fn put(&mut self, slot: usize, p: PixelOut) {
         self.instance_id[slot] = p.instance_id;
         self.class_id[slot] = p.class_id;
     }
@@ -179,7 +228,7 @@ impl IdFrame {
     }
 
     /// The frame's ids in bands of `TILE` rows.
-    pub(super) fn bands(&mut self) -> Vec<IdBand<'_>> {
+    pub(super) fn bands(&mut self) -> Vec<BandSink<'_>> {
         let len = self.rect.width as usize * TILE as usize;
         if len == 0 {
             return Vec::new();
@@ -187,7 +236,7 @@ impl IdFrame {
         self.instance_id
             .chunks_mut(len)
             .zip(self.class_id.chunks_mut(len))
-            .map(|(instance_id, class_id)| IdBand { instance_id, class_id })
+            .map(|(instance_id, class_id)| BandSink::Ids(IdBand { instance_id, class_id }))
             .collect()
     }
 }
@@ -222,7 +271,7 @@ impl Frame {
     }
 
     /// The frame's buffers in bands of `TILE` rows.
-    pub(super) fn bands(&mut self) -> Vec<FrameBand<'_>> {
+    pub(super) fn bands(&mut self) -> Vec<BandSink<'_>> {
         let len = self.width as usize * TILE as usize;
         if len == 0 {
             return Vec::new();
@@ -234,14 +283,14 @@ impl Frame {
         let mut class = self.class_id.chunks_mut(len);
         let mut normal = self.normal.chunks_mut(len);
         std::iter::from_fn(|| {
-            Some(FrameBand {
+            Some(BandSink::Frame(FrameBand {
                 day_nit: day.next()?,
                 night_nit: night.next()?,
                 depth_m: depth.next()?,
                 instance_id: instance.next()?,
                 class_id: class.next()?,
                 normal: normal.next()?,
-            })
+            }))
         })
         .collect()
     }
@@ -254,20 +303,20 @@ impl Renderer<'_> {
     ///
     /// Each band runs in the build of the tile loop that the renderer's [`Dispatch`] picks
     /// ([`scene_gen_core::simd`]): the AVX2 clone where the CPU has it, the same frame either way.
-    pub(super) fn trace_grid<B: BandSink>(
+    pub(super) fn trace_grid(
         &self,
         camera: &Camera,
         grid: (u32, u32),
         at: Cells<'_>,
         job: Job<'_>,
-        bands: Vec<B>,
+        bands: Vec<BandSink<'_>>,
     ) {
         let dispatch = self.dispatch.supported();
         bands.into_par_iter().enumerate().for_each(|(band, sink)| match dispatch {
             // SAFETY: `supported()` gives `Avx2Fma` only when this CPU has AVX2 and FMA.
             #[cfg(target_arch = "x86_64")]
             Dispatch::Avx2Fma => unsafe { self.trace_band_avx2(camera, grid, at, job, band, sink) },
-            _ => self.trace_band(camera, grid, at, job, band, sink),
+            _ => self.trace_band_baseline(camera, grid, at, job, band, sink),
         });
     }
 
@@ -281,38 +330,18 @@ impl Renderer<'_> {
         self
     }
 
-    /// [`Renderer::trace_band`] compiled with AVX2 and FMA enabled: the body and everything
-    /// inlined into it (tile, packet traversal, shading, shadow rays) get AVX2 code.
-    ///
-    /// # Safety
-    /// The CPU must support AVX2 and FMA: call it only when [`Dispatch::supported`] returned
-    /// [`Dispatch::Avx2Fma`].
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
-    unsafe fn trace_band_avx2<B: BandSink>(
-        &self,
-        camera: &Camera,
-        grid: (u32, u32),
-        at: Cells<'_>,
-        job: Job<'_>,
-        band: usize,
-        sink: B,
-    ) {
-        self.trace_band(camera, grid, at, job, band, sink);
-    }
-
     /// Band `band` of [`Renderer::trace_grid`]: its tiles left to right. Always inlined, so that
-    /// each caller (the baseline loop and [`Renderer::trace_band_avx2`]) compiles its own copy
-    /// for its own CPU features.
+    /// each caller (`trace_band_baseline` and `trace_band_avx2`, the two builds) compiles its own
+    /// copy for its own CPU features.
     #[inline(always)]
-    fn trace_band<B: BandSink>(
+    pub(super) fn trace_band<B: Build>(
         &self,
         camera: &Camera,
         (cols, rows): (u32, u32),
         at: Cells<'_>,
         job: Job<'_>,
         band: usize,
-        mut sink: B,
+        mut sink: BandSink<'_>,
     ) {
         let mut packet = RayPacket::new();
         let mut scratch = Scratch::default();
@@ -338,25 +367,26 @@ impl Renderer<'_> {
                     len += 1;
                 }
             }
-            self.trace_tile(camera, &tile[..len], job, &mut packet, &mut scratch, &mut sink);
+            B::tile(self, camera, &tile[..len], job, &mut packet, &mut scratch, &mut sink);
         }
     }
 
     /// One tile: `cells` are (slot, pixel); each finished pixel goes to `sink.put(slot, ..)`.
+    /// `KIND` is `job`'s kind ([`Job::kind`]): the code of the other kinds folds away.
     #[inline(always)]
-    fn trace_tile<B: BandSink>(
+    fn trace_tile<const KIND: u8>(
         &self,
         camera: &Camera,
         cells: &[(usize, (u32, u32))],
         job: Job<'_>,
         packet: &mut RayPacket,
         scratch: &mut Scratch,
-        sink: &mut B,
+        sink: &mut BandSink<'_>,
     ) {
         let basis = camera.basis();
         let origin = camera.position;
         // Plain loops into fixed arrays rather than `collect`: the collecting `fold` was left
-        // out of line, and so ran baseline code in the AVX2 clone too (perf, session 5).
+        // out of line, and so ran baseline code in the AVX2 clone too (perf).
         let (mut px, mut py) = ([0.0f32; PACKET_RAYS], [0.0f32; PACKET_RAYS]);
         for (c, &(_, (x, y))) in cells.iter().enumerate() {
             (px[c], py[c]) = (x as f32 + 0.5, y as f32 + 0.5);
@@ -374,7 +404,7 @@ impl Renderer<'_> {
         let blockers = Blockers::new();
         let tracer = self.tracer(&blockers, self.pixel_seed(camera));
         let mut emitters = Vec::new();
-        if !matches!(job, Job::Labels) {
+        if KIND != LABELS {
             self.lights.emitters_in_reach(packet, &mut emitters);
         }
         let labels = &mut scratch.labels;
@@ -390,18 +420,18 @@ impl Renderer<'_> {
                 None => None,
             };
             let pixel_labels = self.labels(dir, basis, hit.as_ref());
-            match job {
+            match KIND {
                 // `Ids` returned above, before any surface was interpolated.
-                Job::Ids | Job::Labels => sink.put(slot, pixel_labels, None),
-                Job::Shade(_) | Job::Anchor => {
+                LABELS => sink.put(slot, pixel_labels, None),
+                SHADE => {
                     let (pixel, guide) =
                         self.shade_centre(&tracer, camera, (x, y), dir, hit, &emitters, pixel_labels, job);
                     sink.put(slot, pixel, guide);
                 }
-                Job::Samples => labels.push(pixel_labels),
+                _ => labels.push(pixel_labels),
             }
         }
-        if let Job::Samples = job {
+        if KIND == SAMPLES {
             self.sample_tile(&tracer, camera, cells, packet, scratch);
             for (&(slot, _), &pixel) in cells.iter().zip(&scratch.labels) {
                 sink.put(slot, pixel, None);
@@ -437,7 +467,7 @@ impl Renderer<'_> {
         // keyed by the tile's first pixel; each pixel's own stream is seeded only if its shading
         // draws (rect-light samples, bounces). Seeding a ChaCha stream and filling its first
         // block per pixel, for the ten numbers a pixel of a 4-spp point-lit image draws, was 15 % of
-        // such an image (perf, session 11).
+        // such an image (perf).
         let mut jitter =
             Sampler::of_hashed(tracer.pixel_seed, TILE_STREAM, cells.first().map_or(0, |c| pixel_key(c.1)));
         let Scratch { surfaces, responses, batch, labels, samplers } = scratch;
@@ -670,6 +700,165 @@ impl Renderer<'_> {
         out.radiance = finite_radiance(tracer.surface_radiance(dir, s, e.map(|(e, _)| e), sampler));
         (out, guide)
     }
+}
+
+/// The baseline build of the tile loop: the band loop, and one function per kind of job, each
+/// in a module of its own, as LLVM optimises a crate's modules as separate units in parallel.
+mod baseline {
+    use super::{BandSink, Build, Cells, Job, LABELS, SHADE, Scratch};
+    use crate::{Camera, Renderer};
+    use scene_gen_trace::RayPacket;
+
+    pub(super) struct Baseline;
+
+    impl Build for Baseline {
+        #[inline(always)]
+        fn tile(
+            r: &Renderer<'_>,
+            camera: &Camera,
+            cells: &[(usize, (u32, u32))],
+            job: Job<'_>,
+            packet: &mut RayPacket,
+            scratch: &mut Scratch,
+            sink: &mut BandSink<'_>,
+        ) {
+            match job.kind() {
+                LABELS => labels::tile(r, camera, cells, job, packet, scratch, sink),
+                SHADE => shade::tile(r, camera, cells, job, packet, scratch, sink),
+                _ => samples::tile(r, camera, cells, job, packet, scratch, sink),
+            }
+        }
+    }
+
+    impl Renderer<'_> {
+        /// [`Renderer::trace_band`] in the target's baseline build.
+        #[inline(never)]
+        pub(in crate::tile) fn trace_band_baseline(
+            &self,
+            camera: &Camera,
+            grid: (u32, u32),
+            at: Cells<'_>,
+            job: Job<'_>,
+            band: usize,
+            sink: BandSink<'_>,
+        ) {
+            self.trace_band::<Baseline>(camera, grid, at, job, band, sink);
+        }
+    }
+
+    /// The tile function of one kind of job.
+    macro_rules! kind {
+        ($module:ident, $kind:ident) => {
+            mod $module {
+                use super::super::{BandSink, Job, Scratch, $kind};
+                use crate::{Camera, Renderer};
+                use scene_gen_trace::RayPacket;
+
+                #[inline(never)]
+                pub(super) fn tile(
+                    r: &Renderer<'_>,
+                    camera: &Camera,
+                    cells: &[(usize, (u32, u32))],
+                    job: Job<'_>,
+                    packet: &mut RayPacket,
+                    scratch: &mut Scratch,
+                    sink: &mut BandSink<'_>,
+                ) {
+                    r.trace_tile::<$kind>(camera, cells, job, packet, scratch, sink);
+                }
+            }
+        };
+    }
+    kind!(labels, LABELS);
+    kind!(shade, SHADE);
+    kind!(samples, SAMPLES);
+}
+
+/// The AVX2 + FMA build of the tile loop, laid out as [`baseline`]: every function has the
+/// target features, so everything inlined into them gets AVX2 code.
+#[cfg(target_arch = "x86_64")]
+mod avx2 {
+    use super::{BandSink, Build, Cells, Job, LABELS, SHADE, Scratch};
+    use crate::{Camera, Renderer};
+    #[cfg(doc)]
+    use scene_gen_core::simd::Dispatch;
+    use scene_gen_trace::RayPacket;
+
+    pub(super) struct Avx2;
+
+    impl Build for Avx2 {
+        #[inline(always)]
+        fn tile(
+            r: &Renderer<'_>,
+            camera: &Camera,
+            cells: &[(usize, (u32, u32))],
+            job: Job<'_>,
+            packet: &mut RayPacket,
+            scratch: &mut Scratch,
+            sink: &mut BandSink<'_>,
+        ) {
+            // SAFETY: `Avx2` is only the build of `trace_band_avx2`, which runs only where the
+            // CPU has AVX2 and FMA.
+            unsafe {
+                match job.kind() {
+                    LABELS => labels::tile(r, camera, cells, job, packet, scratch, sink),
+                    SHADE => shade::tile(r, camera, cells, job, packet, scratch, sink),
+                    _ => samples::tile(r, camera, cells, job, packet, scratch, sink),
+                }
+            }
+        }
+    }
+
+    impl Renderer<'_> {
+        /// [`Renderer::trace_band`] compiled with AVX2 and FMA enabled: the body and everything
+        /// inlined into it (tile, packet traversal, shading, shadow rays) get AVX2 code.
+        ///
+        /// # Safety
+        /// The CPU must support AVX2 and FMA: call it only when [`Dispatch::supported`] returned
+        /// [`Dispatch::Avx2Fma`].
+        #[target_feature(enable = "avx2,fma")]
+        pub(in crate::tile) unsafe fn trace_band_avx2(
+            &self,
+            camera: &Camera,
+            grid: (u32, u32),
+            at: Cells<'_>,
+            job: Job<'_>,
+            band: usize,
+            sink: BandSink<'_>,
+        ) {
+            self.trace_band::<Avx2>(camera, grid, at, job, band, sink);
+        }
+    }
+
+    /// The tile function of one kind of job.
+    macro_rules! kind {
+        ($module:ident, $kind:ident) => {
+            mod $module {
+                use super::super::{BandSink, Job, Scratch, $kind};
+                use crate::{Camera, Renderer};
+                use scene_gen_trace::RayPacket;
+
+                /// # Safety
+                /// The CPU must support AVX2 and FMA.
+                #[target_feature(enable = "avx2,fma")]
+                #[inline(never)]
+                pub(super) unsafe fn tile(
+                    r: &Renderer<'_>,
+                    camera: &Camera,
+                    cells: &[(usize, (u32, u32))],
+                    job: Job<'_>,
+                    packet: &mut RayPacket,
+                    scratch: &mut Scratch,
+                    sink: &mut BandSink<'_>,
+                ) {
+                    r.trace_tile::<$kind>(camera, cells, job, packet, scratch, sink);
+                }
+            }
+        };
+    }
+    kind!(labels, LABELS);
+    kind!(shade, SHADE);
+    kind!(samples, SAMPLES);
 }
 
 #[cfg(test)]

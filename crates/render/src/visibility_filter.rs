@@ -14,7 +14,7 @@
 //!
 //! What it costs in accuracy: a visibility edge within one surface (a window shadow on the
 //! floor) is smoothed over `2 radius + 1` anchors. What it buys: the same noise with a fraction
-//! of the shadow rays per anchor (docs/BENCHMARKS.md, "Session 9").
+//! of the shadow rays per anchor (docs/BENCHMARKS.md, "Render noise and ORB inliers").
 //!
 //! Every anchor is computed from the unfiltered grid alone, so frames stay the same at any
 //! thread count.
