@@ -9,7 +9,7 @@
 //! OBJ, USDA, USDC) into a scratch folder and prints the median wall time and output size. The
 //! USD figures include starting Python and importing usd-core (about 0.2 s of it on this
 //! machine, measured by `usd start-up` below), since every export pays it. Needs usd-core in the
-//! Python `scene-gen` finds (see src/export/usd.rs); without it the USD rows say why.
+//! Python `scene-gen` finds (see crates/export/src/usd.rs); without it the USD rows say why.
 
 use std::time::Instant;
 

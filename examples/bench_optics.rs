@@ -1,4 +1,4 @@
-//! Cost of each optical effect (src/optics.rs) on one 640 x 480 frame, and of the whole
+//! Cost of each optical effect (crates/camera/src/optics.rs) on one 640 x 480 frame, and of the whole
 //! capture with and without them.
 //!
 //! ```sh

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""An "oracle" detector for scene-gen's plug-in protocol (see src/detection/mod.rs): it answers
+"""An "oracle" detector for scene-gen's plug-in protocol (see crates/perception/src/detection/mod.rs): it answers
 every request with the boxes of a COCO ground-truth file, score 1. It proves the protocol
 round trip (external process -> scene-gen's COCO evaluation -> AP = 1) and is a template for
 a real detector. Standard library only.

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""A real detector for scene-gen's plug-in protocol (src/detection/mod.rs): torchvision's
+"""A real detector for scene-gen's plug-in protocol (crates/perception/src/detection/mod.rs): torchvision's
 Faster R-CNN (ResNet-50-FPN), the network TaCOS used.
 
 Runs on the user's own machine; scene-gen's tests never run it (they have no PyTorch). Needs

@@ -3,7 +3,7 @@
     python write_usd.py SCRATCH_DIR OUTPUT.usda|OUTPUT.usdc
 
 SCRATCH_DIR holds interchange.json (schema scene-gen/usd-interchange/1: every prim, material and
-light, laid out by src/export/usd.rs) and geometry.bin (little-endian f32 and u32 vertex arrays
+light, laid out by crates/export/src/usd.rs) and geometry.bin (little-endian f32 and u32 vertex arrays
 the meshes point into by byte offset and element count). This script makes no layout decisions:
 it transcribes the plan with the USD schemas (UsdGeom, UsdShade UsdPreviewSurface, UsdLux,
 UsdSemantics) and saves the layer; the layer format follows the output's extension.

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# COCO bbox evaluation (src/detection/coco_eval.rs, via examples/coco_eval.rs) against
+# COCO bbox evaluation (crates/perception/src/detection/coco_eval.rs, via examples/coco_eval.rs) against
 # pycocotools' COCOeval on random sets, plus the external-detector plug-in round trip with
 # examples/detector_plugin/oracle_detector.py. PROFILE=debug uses a debug build.
 set -euo pipefail

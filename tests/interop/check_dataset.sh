@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# scene-gen dataset (src/dataset/) against pycocotools: a two-shard dataset of two houses is
+# scene-gen dataset (crates/design/src/dataset/) against pycocotools: a two-shard dataset of two houses is
 # loaded with COCO(), every annotation's mask.decode equals the instance-mask PNG pixels of its
 # instance, and COCOeval of the ground truth as detections (score 1) gives AP 1.0 for bbox
 # and segm, by day and by night. Uses target/release/scene-gen (BIN= overrides).

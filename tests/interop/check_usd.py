@@ -10,7 +10,7 @@ For one scene written twice (text and binary layers) it checks:
   * each labelled prim's world bounding box (tight, from the mesh points) is within 1 mm
     of the manifest's min/max;
   * the `lighting` variant set: `day` activates exactly the manifest's day lights, `night` the
-    night lights, with the UsdLux types and unit conversions of src/export/usd.rs;
+    night lights, with the UsdLux types and unit conversions of crates/export/src/usd.rs;
   * every texture a UsdUVTexture reads exists;
   * usd-core's validators (UsdValidation, all registered, as usdchecker runs them) report no
     error; warnings are printed. A deliberately broken stage must make them report errors;
@@ -26,7 +26,7 @@ import sys
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdSemantics, UsdShade, UsdValidation
 
 TOLERANCE_M = 1e-3
-POINT_LIGHT_RADIUS_M = 0.025  # src/export/usd.rs
+POINT_LIGHT_RADIUS_M = 0.025  # crates/export/src/usd.rs
 LEGACY = "SemanticsAPI:Semantics"
 
 

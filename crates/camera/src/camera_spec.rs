@@ -8,7 +8,7 @@
 //! focal_mm = 4.0
 //! pitch_deg = -10.0
 //! noise = "emva"        # "emva" | "affine" | "off"
-//! # Optics (src/optics.rs), each switchable:
+//! # Optics (crates/camera/src/optics.rs), each switchable:
 //! vignetting = true      # cos^4 fall-off
 //! diffraction = true     # Airy blur at 550 nm (Gaussian sigma 0.42 lambda N); no-op when sub-pixel
 //! defocus = false        # thin-lens circle of confusion from the depth buffer
@@ -292,7 +292,7 @@ impl CameraSpec {
                     spec.max_width_px =
                         Some(value.parse::<u32>().map_err(|_| field(key, format!("'{value}' is not a whole number")))?);
                 }
-                _ => return Err(field(key, "unknown field (see src/camera_spec.rs for the list)")),
+                _ => return Err(field(key, "unknown field (see crates/camera/src/camera_spec.rs for the list)")),
             }
         }
         spec.validate()?;

@@ -14,8 +14,8 @@
 //! weights that bring the mean illuminance on the table-height plane to a target.
 //!
 //! ```no_run
-//! use scene_gen::render::{Camera, RenderSettings, Renderer};
-//! use scene_gen::{config::GeneratorConfig, generate::generate, library::Library};
+//! use scene_gen_render::{Camera, RenderSettings, Renderer};
+//! use scene_gen_scene::{config::GeneratorConfig, generate::generate, library::Library};
 //! let scene = generate(&GeneratorConfig { seed: 7, ..GeneratorConfig::default() }, &Library::embedded()?)?;
 //! let renderer = Renderer::new(&scene, RenderSettings::default());
 //! let camera = Camera {

@@ -2,7 +2,7 @@
 //! numbers ([`noise`]).
 //!
 //! ```
-//! use scene_gen::sensor::{Catalog, SensorModel};
+//! use scene_gen_camera::sensor::{Catalog, SensorModel};
 //! let catalog = Catalog::embedded();
 //! let imx174 = catalog.get("imx174").expect("in the catalog");
 //! let model = SensorModel::from_sensor(imx174, 1);

@@ -13,7 +13,7 @@
 //! `tests/interop/check_orb.sh` measures the agreement against OpenCV itself.
 //!
 //! ```
-//! use scene_gen::orb::Orb;
+//! use scene_gen_perception::orb::Orb;
 //! let (w, h) = (160usize, 120usize);
 //! let pixels: Vec<u8> = (0..w * h).map(|i| if (i % w / 20 + i / w / 20) % 2 == 0 { 40 } else { 200 }).collect();
 //! let (keypoints, descriptors) = Orb::default().detect_and_compute((pixels.as_slice(), w, h)).unwrap();
