@@ -53,6 +53,11 @@ fn objects_and_thresholds_round_trip_through_tobj() {
         }
         assert!(checked > 0, "seed {seed}: no labelled objects to check");
         assert_eq!(bounds.len(), scene.geometry.nodes.len(), "one group per node");
+        let text = String::from_utf8(obj.clone()).unwrap();
+        let objects: Vec<&str> = text.lines().filter_map(|l| l.strip_prefix("o ")).collect();
+        let groups: Vec<&str> = text.lines().filter_map(|l| l.strip_prefix("g ")).collect();
+        assert_eq!(objects.len(), scene.geometry.nodes.len(), "seed {seed}: one `o` line per node");
+        assert_eq!(objects, groups, "seed {seed}: each object's group has its name");
         let mtl = String::from_utf8(files.iter().find(|(n, _)| n == "scene.mtl").unwrap().1.clone()).unwrap();
         for line in mtl.lines().filter_map(|l| l.strip_prefix("map_Kd ")) {
             assert!(files.iter().any(|(n, _)| n == line), "seed {seed}: MTL names missing texture {line}");

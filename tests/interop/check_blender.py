@@ -1,7 +1,7 @@
 """Imports a scene-gen GLB (or USD) into Blender (the `bpy` module) and checks it against the
 manifest.
 
-    python tests/interop/check_blender.py SCENE.glb|SCENE.usda|SCENE.usdc [SCENE.json]
+    python tests/interop/check_blender.py SCENE.glb|SCENE.usda|SCENE.usdc|SCENE.obj [SCENE.json]
 
 The contract (docs/CONTRACTS.md, crates/export/src/gltf.rs): every object and threshold is a glTF node named
 `<class>_<id>` whose extras are {class, class_id, instance_id, room, room_type}; glTF is Y up in
@@ -19,6 +19,10 @@ USD goes through Blender's own USD importer: labelled prims become objects named
 whose custom attributes (`scenegen:class_id`, `scenegen:instance_id`) become custom
 properties; the same count, property and bounds checks apply (Blender does not import the
 UsdSemantics token arrays, so the class is read from the name there).
+OBJ goes through Blender's OBJ importer with its default options, which make one Blender object
+per `o` line: every node of the file must arrive as its own object (as many mesh objects as `o`
+lines), and each labelled one, named `<class>_<id>`, must have the manifest's bounds within 1 mm
+(OBJ carries no custom properties).
 Exits non-zero with every failure listed.
 """
 
@@ -76,7 +80,8 @@ def main(argv):
     glb = argv[1]
     manifest_path = argv[2] if len(argv) > 2 else os.path.join(os.path.dirname(glb), "scene.json")
     is_usd = glb.endswith((".usda", ".usdc", ".usd"))
-    reason = None if is_usd else check_glb_header(glb)
+    is_obj = glb.endswith(".obj")
+    reason = None if is_usd or is_obj else check_glb_header(glb)
     if reason:
         print(f"FAIL {reason}", file=sys.stderr)
         return 1
@@ -88,6 +93,8 @@ def main(argv):
     bpy.ops.wm.read_factory_settings(use_empty=True)
     if is_usd:
         result = bpy.ops.wm.usd_import(filepath=os.path.abspath(glb))
+    elif is_obj:
+        result = bpy.ops.wm.obj_import(filepath=os.path.abspath(glb))
     else:
         result = bpy.ops.import_scene.gltf(filepath=os.path.abspath(glb))
     if result != {"FINISHED"}:
@@ -102,8 +109,19 @@ def main(argv):
         expected[f"threshold_{t['id']}"] = ("threshold", t["instance_id"], t["min"], t["max"])
 
     marker = "scenegen:instance_id" if is_usd else "class"
-    labelled = {o.name: o for o in bpy.data.objects if marker in o.keys()}
-    if len(labelled) != len(expected):
+    if is_obj:
+        with open(glb, encoding="utf-8") as f:
+            o_lines = sum(1 for line in f if line.startswith("o "))
+        meshes = sum(1 for o in bpy.data.objects if o.type == "MESH")
+        if meshes != o_lines:
+            failures.append(f"{meshes} Blender mesh objects from {o_lines} `o` lines: objects were merged or split")
+        labelled = {o.name: o for o in bpy.data.objects if o.name in expected}
+    else:
+        labelled = {o.name: o for o in bpy.data.objects if marker in o.keys()}
+    if is_obj and len(labelled) != len(expected):
+        failures.append(f"{len(labelled)} Blender objects carry an object's or threshold's name, manifest has "
+                        f"{len(expected)} objects + thresholds")
+    elif len(labelled) != len(expected):
         failures.append(f"{len(labelled)} Blender objects carry a `{marker}` property, manifest has "
                         f"{len(expected)} objects + thresholds")
     worst_mm = 0.0
@@ -112,12 +130,15 @@ def main(argv):
         if obj is None:
             failures.append(f"{name}: no Blender object of that name with a `{marker}` property")
             continue
-        if is_usd:
+        if is_obj:
+            got = want = None  # OBJ has no custom properties; the name is the label
+        elif is_usd:
             got = {"class": name.rsplit("_", 1)[0], "class_id": obj.get("scenegen:class_id"),
                    "instance_id": obj.get("scenegen:instance_id")}
         else:
             got = {k: obj.get(k) for k in ("class", "class_id", "instance_id")}
-        want = {"class": cls, "class_id": CLASS_IDS[cls], "instance_id": instance_id}
+        if not is_obj:
+            want = {"class": cls, "class_id": CLASS_IDS[cls], "instance_id": instance_id}
         if got != want:
             failures.append(f"{name}: custom properties {got}, want {want}")
         box = world_box(obj)

@@ -49,6 +49,20 @@ for format in usda usdc; do
   [ "${PIPESTATUS[0]}" = 0 ] || { echo "check_blender: seed 3 $format failed" >&2; exit 1; }
 done
 
+# The OBJ export through Blender's OBJ importer, default options: one Blender object per node.
+# The same file without its `o` lines must fail (Blender then merges the house into one object).
+"$bin" --seed 4 --format obj --out "$work/obj4"
+echo "OBJ (seed 4):"
+"$python" tests/interop/check_blender.py "$work/obj4/scene.obj" 2>&1 | quiet
+[ "${PIPESTATUS[0]}" = 0 ] || { echo "check_blender: seed 4 obj failed" >&2; exit 1; }
+mkdir -p "$work/obj4-merged"
+cp -r "$work/obj4/scene.mtl" "$work/obj4/textures" "$work/obj4/scene.json" "$work/obj4-merged/"
+grep -v '^o ' "$work/obj4/scene.obj" > "$work/obj4-merged/scene.obj"
+if "$python" tests/interop/check_blender.py "$work/obj4-merged/scene.obj" >/dev/null 2>&1; then
+  echo "check_blender: an OBJ without 'o' lines passed (objects merged)" >&2; exit 1
+fi
+echo "  the same OBJ without its 'o' lines is caught (Blender merges it into one object)"
+
 for seed in 1 2; do
   "$bin" --seed "$seed" --format glb --out "$work/s$seed"
   echo "seed $seed:"

@@ -1,8 +1,9 @@
 //! Wavefront OBJ export: `scene.obj`, `scene.mtl` and `textures/*.png`.
 //!
 //! OBJ has no node hierarchy and no instancing, so every node's mesh is written out in world
-//! coordinates, one group per node: objects as `<class>_<id>` (the label a user filters on),
-//! thresholds as `threshold_<id>`, structure and decor under their node names. Coordinates are
+//! coordinates as one object (`o`) and group (`g`) of the same name: objects as `<class>_<id>`
+//! (the label a user filters on), thresholds as `threshold_<id>`, structure and decor under
+//! their node names. Coordinates are
 //! Y up, metres, the convention OBJ importers (Blender, Unreal) assume: world (x, y, z) is
 //! written as (x, z, -y).
 
@@ -57,7 +58,10 @@ fn obj_text(scene: &Scene) -> String {
     out.push_str("mtllib scene.mtl\n");
     let mut base = 1usize; // OBJ indices are 1-based and global.
     for node in &g.nodes {
-        let _ = writeln!(out, "g {}", group_name(scene, node.semantic, &node.name));
+        // `o` keeps objects apart in importers that split by object (Blender's and trimesh's
+        // defaults); `g` serves those that split by group.
+        let name = group_name(scene, node.semantic, &node.name);
+        let _ = writeln!(out, "o {name}\ng {name}");
         let normal_matrix = normal_matrix(node.transform);
         for primitive in &g.meshes[node.mesh].primitives {
             for p in &primitive.positions {
