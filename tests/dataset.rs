@@ -218,3 +218,63 @@ fn other_settings_in_the_same_folder_are_refused() {
     assert!(text(&out).contains("other settings"), "{}", text(&out));
     assert_eq!(mtimes(dir), before);
 }
+
+/// Every image carries `K` and a rigid camera-to-world pose at the camera's height, the
+/// sequence's trajectory file repeats them in pose order, and back-projected depth stays inside
+/// the house's envelope. (`tests/interop/check_depth_fusion.sh` checks the points against the
+/// house's surfaces.)
+#[test]
+fn frames_carry_their_camera() {
+    let dir = single();
+    let json = |path: PathBuf| -> serde_json::Value { serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap() };
+    let day = json(dir.join("annotations/instances_day.json"));
+    let images = day["images"].as_array().unwrap();
+    assert_eq!(images.len(), 4);
+    for image in images {
+        let k: [[f64; 3]; 3] = serde_json::from_value(image["K"].clone()).unwrap();
+        let m: [[f64; 4]; 4] = serde_json::from_value(image["camera_to_world"].clone()).unwrap();
+        let (w, h) = (image["width"].as_f64().unwrap(), image["height"].as_f64().unwrap());
+        assert_eq!((k[0][2], k[1][2], k[2]), (w / 2.0 - 0.5, h / 2.0 - 0.5, [0.0, 0.0, 1.0]));
+        assert!(k[0][0] > 0.0 && k[0][0] == k[1][1], "square pixels: {k:?}");
+        for a in 0..3 {
+            for b in 0..3 {
+                let dot: f64 = (0..3).map(|r| m[r][a] * m[r][b]).sum();
+                assert!((dot - f64::from(u8::from(a == b))).abs() < 1e-6, "rotation not orthonormal: {m:?}");
+            }
+        }
+        assert!((m[2][3] - 0.8).abs() < 1e-6 && m[3] == [0.0, 0.0, 0.0, 1.0], "camera at 0.8 m: {m:?}");
+        assert!(image["exposure_s"].as_f64().unwrap() > 0.0 && image["gain_db"].is_number(), "{image}");
+
+        let depth = image::open(dir.join(image["depth_file"].as_str().unwrap())).unwrap().into_luma16();
+        let mut inside = 0;
+        for (u, v, px) in depth.enumerate_pixels().filter(|(_, _, p)| p.0[0] > 0) {
+            let z = f64::from(px.0[0]) / 1000.0;
+            let cam = [(f64::from(u) - k[0][2]) / k[0][0] * z, (f64::from(v) - k[1][2]) / k[1][1] * z, z];
+            let p: Vec<f64> =
+                (0..3).map(|r| m[r][0] * cam[0] + m[r][1] * cam[1] + m[r][2] * cam[2] + m[r][3]).collect();
+            // The outer walls (0.1 m thick) are centred on the envelope; window reveals lie in them.
+            let (lo, hi) = (-0.06, 15.06);
+            assert!(
+                (lo..=hi).contains(&p[0]) && (lo..=hi).contains(&p[1]) && (-0.06..=3.06).contains(&p[2]),
+                "{}: pixel ({u}, {v}) lands outside the 15 x 15 x 3 m house and its walls at {p:?}",
+                image["file_name"]
+            );
+            inside += 1;
+        }
+        assert!(inside > 100, "{}: {inside} depth pixels", image["file_name"]);
+    }
+    for seed in [0, 1] {
+        let trajectory = json(dir.join(format!("trajectories/seed_{seed:010}.json")));
+        let frames = trajectory["frames"].as_array().unwrap();
+        assert_eq!(frames.len(), 2);
+        for frame in frames {
+            let image = images
+                .iter()
+                .find(|i| i["seed"] == seed && i["pose"] == frame["pose"])
+                .unwrap_or_else(|| panic!("seed {seed}: no image of pose {}", frame["pose"]));
+            assert_eq!(frame["camera_to_world"], image["camera_to_world"]);
+            assert_eq!(frame["K"], image["K"]);
+        }
+        assert!(frames[0]["time_s"].as_f64().unwrap() < frames[1]["time_s"].as_f64().unwrap());
+    }
+}

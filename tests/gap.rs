@@ -172,8 +172,11 @@ fn cli_writes_reports_and_prints_json() {
     let dir = temp_dir("cli");
     let (case, desc) = write_case(1, 1, &dir.join("data"));
     let out = dir.join("out");
-    let o = bin().arg("gap").arg(&desc).arg("--out").arg(&out).arg("--json").output().unwrap();
+    let o = bin().arg("gap").arg(&desc).arg("--out").arg(&out).arg("--json").env_remove("RUST_LOG").output().unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // Off a terminal, progress is plain lines on stderr ending with the time taken.
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(stderr.lines().last().is_some_and(|l| l.starts_with("gap: done in ")), "{stderr}");
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("stdout is one JSON document");
     let keys: Vec<&String> = v.as_object().unwrap().keys().collect();
     assert_eq!(keys, ["gap_final", "gap_initial", "named", "simulations", "steps"]);

@@ -11,12 +11,11 @@ use std::path::PathBuf;
 
 use anyhow::anyhow;
 use clap::{Args, ValueEnum};
-use indicatif::{ProgressBar, ProgressStyle};
 use scene_gen::camera_spec::CameraSpec;
-use scene_gen::dataset::{
-    Dataset, DatasetError, DatasetSpec, FrameSelection, Lighting, Progress, Quality, SeedRange, Shard,
-};
+use scene_gen::dataset::{Dataset, DatasetError, DatasetSpec, FrameSelection, Lighting, Quality, SeedRange, Shard};
 
+use super::house::HouseArgs;
+use super::progress::Progress;
 use super::{CliError, bad_input, failure};
 
 /// Which scenarios to make.
@@ -65,13 +64,16 @@ pub struct DatasetArgs {
     /// Only merge the seeds' fragments into the COCO files (after all shards ran).
     #[arg(long)]
     pub merge: bool,
+    /// The houses (recorded in DIR/dataset.json; every shard must give the same).
+    #[command(flatten)]
+    pub house: HouseArgs,
 }
 
-struct Bar(ProgressBar);
+struct Frames(Progress);
 
-impl Progress for Bar {
+impl scene_gen::dataset::Progress for Frames {
     fn planned(&self, frames: u64) {
-        self.0.inc_length(frames);
+        self.0.add_total(frames);
     }
     fn done(&self, _rendered: bool) {
         self.0.inc(1);
@@ -113,8 +115,9 @@ pub fn run(args: &DatasetArgs) -> Result<(), CliError> {
         QualityArg::Standard => Quality::Standard,
         QualityArg::High => Quality::High,
     };
-    let dataset =
-        Dataset::new(&args.out, DatasetSpec::new(seeds, camera, lighting, frames, quality)).map_err(classify)?;
+    let house = args.house.checked()?;
+    let spec = DatasetSpec { house, ..DatasetSpec::new(seeds, camera, lighting, frames, quality) };
+    let dataset = Dataset::new(&args.out, spec).map_err(classify)?;
     dataset.check_dir().map_err(classify)?;
 
     if args.merge {
@@ -124,16 +127,10 @@ pub fn run(args: &DatasetArgs) -> Result<(), CliError> {
     }
 
     dataset.init().map_err(classify)?;
-    let bar = ProgressBar::new(0);
-    bar.set_style(
-        ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} frames ({per_sec}, eta {eta})")
-            .expect("valid template")
-            .progress_chars("=> "),
-    );
-    let progress = Bar(bar);
+    let progress = Frames(Progress::new("dataset", "frames", 0));
     let (w, h) = dataset.image_size();
     let report = dataset.run_shard(shard, &progress).map_err(classify)?;
-    progress.0.finish_and_clear();
+    progress.0.finish();
     println!(
         "shard {shard}: {} frames of {w}x{h} ({} rendered, {} already there) in {}",
         report.frames,

@@ -4,11 +4,15 @@
 use anyhow::anyhow;
 use clap::Args;
 use scene_gen::camera_spec::CameraSpec;
-use scene_gen::evaluate::{EvalConfig, EvalError, Evaluation, ExternalDetector, ScenarioScore, evaluate};
+use scene_gen::evaluate::{
+    EvalConfig, EvalError, EvalProgress, Evaluation, ExternalDetector, ScenarioScore, evaluate_with_progress,
+};
 use scene_gen::isp::OutputRule;
 use scene_gen::render::RenderSettings;
 use scene_gen::seeds::{SeedRange, SeedsError};
 
+use super::house::HouseArgs;
+use super::progress::Progress;
 use super::{CliError, bad_input, failure};
 
 #[derive(Args, Debug)]
@@ -54,6 +58,19 @@ pub struct EvaluateArgs {
     /// Print the evaluation as JSON only.
     #[arg(long)]
     pub json: bool,
+    #[command(flatten)]
+    pub house: HouseArgs,
+}
+
+struct Poses(Progress);
+
+impl EvalProgress for Poses {
+    fn planned(&self, poses: u64) {
+        self.0.add_total(poses);
+    }
+    fn done(&self) {
+        self.0.inc(1);
+    }
 }
 
 /// Most bounce rays per pixel `--bounce-rays` takes: beyond a few, `standard` and `high`
@@ -128,6 +145,7 @@ pub fn run(args: &EvaluateArgs) -> Result<(), CliError> {
     if args.bounce_rays > MAX_BOUNCE_RAYS {
         return Err(bad_input(anyhow!("--bounce-rays {}: at most {MAX_BOUNCE_RAYS}", args.bounce_rays)));
     }
+    let house = args.house.checked()?;
     let defaults = EvalConfig::default();
     let (render, render_name) = match args.bounce_rays {
         0 => (defaults.render, defaults.render_name.clone()),
@@ -142,9 +160,13 @@ pub fn run(args: &EvaluateArgs) -> Result<(), CliError> {
         output,
         min_usable_images: args.min_usable,
         detector,
+        house,
         ..defaults
     };
-    let mut evaluation = evaluate(&spec, &seeds, &config).map_err(|e| match e {
+    let progress = Poses(Progress::new("evaluate", "poses", 0));
+    let evaluation = evaluate_with_progress(&spec, &seeds, &config, &progress);
+    progress.0.finish();
+    let mut evaluation = evaluation.map_err(|e| match e {
         EvalError::Spec(_) | EvalError::NoSeeds | EvalError::NoFrames | EvalError::BadSpeed(_) => bad_input(e),
         other => failure(other),
     })?;

@@ -8,6 +8,7 @@ use clap::Args;
 use scene_gen::gap::{self, GapModel, GapOptions, Optics};
 use scene_gen::sensor::SensorModel;
 
+use super::progress::activity;
 use super::sensors::emit;
 use super::{CliError, bad_input, failure};
 
@@ -57,7 +58,7 @@ pub fn run(args: &GapArgs) -> Result<(), CliError> {
         screen: !args.no_screen,
         ..GapOptions::default()
     };
-    let result = gap::run_inputs(&args.measured, model, &options).map_err(bad_input)?;
+    let result = activity("gap", || gap::run_inputs(&args.measured, model, &options)).map_err(bad_input)?;
     let source = args.measured.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(" ");
     let files = gap::report::render(&result, &source).map_err(failure)?;
     gap::report::write(&args.out, &files).map_err(failure)?;

@@ -4,13 +4,12 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, anyhow};
 use clap::{Args, ValueEnum};
-use scene_gen::config::GeneratorConfig;
 use scene_gen::export::{self, write_atomic};
 use scene_gen::generate::generate;
-use scene_gen::library::{Library, LibrarySource};
+use scene_gen::house::HouseOptions;
 use scene_gen::manifest::Manifest;
-use scene_gen::scene::Envelope;
 
+use super::house::HouseArgs;
 use super::{CliError, bad_input, failure};
 
 /// Scene file formats.
@@ -20,7 +19,7 @@ pub enum Format {
     Glb,
     /// glTF JSON with a separate scene.bin and textures/*.png.
     Gltf,
-    /// Wavefront OBJ + MTL + textures/, Y up, one group per object.
+    /// Wavefront OBJ + MTL + textures/, Y up, one object (`o` and `g`) per node.
     Obj,
     /// USD text layer + textures/, Z up, metres, semantics labels (needs usd-core).
     Usda,
@@ -39,46 +38,15 @@ pub struct GenerateArgs {
     /// Scene file format.
     #[arg(long, value_enum, default_value_t = Format::Glb)]
     pub format: Format,
-    /// Envelope WIDTHxDEPTHxHEIGHT in metres.
-    #[arg(long, default_value = "15x15x3", value_parser = parse_envelope)]
-    pub envelope: Envelope,
-    /// Smallest room side in metres, at wall centre lines.
-    #[arg(long, default_value_t = 5.0)]
-    pub min_room: f32,
-    /// Room-type library folder (default: the embedded rooms/).
-    #[arg(long)]
-    pub rooms: Option<PathBuf>,
-    /// Furniture library folder (default: the embedded furniture/).
-    #[arg(long)]
-    pub furniture: Option<PathBuf>,
-}
-
-/// Parses `WxDxH` in metres.
-fn parse_envelope(text: &str) -> Result<Envelope, String> {
-    let parts: Vec<&str> = text.split(['x', 'X']).collect();
-    let [w, d, h] = parts.as_slice() else {
-        return Err(format!("'{text}' is not WIDTHxDEPTHxHEIGHT in metres, e.g. 15x15x3"));
-    };
-    let num = |s: &str, what: &str| {
-        s.trim().parse::<f32>().map_err(|_| format!("'{s}' in '{text}' is not a number ({what})"))
-    };
-    Ok(Envelope { width_m: num(w, "width")?, depth_m: num(d, "depth")?, height_m: num(h, "height")? })
-}
-
-fn source(path: Option<&Path>) -> LibrarySource<'_> {
-    path.map_or(LibrarySource::Embedded, LibrarySource::Folder)
+    #[command(flatten)]
+    pub house: HouseArgs,
 }
 
 pub fn run(args: &GenerateArgs) -> Result<(), CliError> {
-    let library = Library::load(source(args.rooms.as_deref()), source(args.furniture.as_deref())).map_err(bad_input)?;
-    let config = GeneratorConfig {
-        seed: args.seed,
-        envelope: args.envelope,
-        min_room_m: args.min_room,
-        ..GeneratorConfig::default()
-    };
-    config.validate().map_err(bad_input)?;
-    let scene = generate(&config, &library).map_err(bad_input)?;
+    let options = args.house.over(HouseOptions::default());
+    options.validate().map_err(bad_input)?;
+    let library = options.library().map_err(bad_input)?;
+    let scene = generate(&options.config(args.seed), &library).map_err(bad_input)?;
 
     // Encode everything before writing anything, so a failure leaves no partial output.
     let mut files = match args.format {

@@ -5,8 +5,10 @@ mod dataset;
 mod evaluate;
 mod gap;
 mod generate;
+mod house;
 mod optimize;
 mod orb;
+mod progress;
 mod render;
 mod sensors;
 mod serve;
@@ -37,10 +39,16 @@ pub fn failure(error: impl Into<anyhow::Error>) -> CliError {
     CliError { error: error.into(), bad_input: false }
 }
 
+/// The release version and the commit it was built from.
+const VERSION: &str = concat!(env!("CARGO_PKG_VERSION"), " (commit ", env!("SCENE_GEN_COMMIT"), ")");
+
 /// Seeded indoor environments and camera simulation for task-specific camera design.
 #[derive(Parser, Debug)]
-#[command(name = "scene-gen", version, about, args_conflicts_with_subcommands = true)]
+#[command(name = "scene-gen", version = VERSION, about, args_conflicts_with_subcommands = true)]
 pub struct Cli {
+    /// No progress reports on stderr (errors are still written).
+    #[arg(long, global = true)]
+    pub quiet: bool,
     #[command(flatten)]
     pub generate: generate::GenerateArgs,
     #[command(subcommand)]
@@ -49,6 +57,8 @@ pub struct Cli {
 
 #[derive(Subcommand, Debug)]
 pub enum Command {
+    /// Generate one house and write it out (the same as `scene-gen` with these options alone).
+    Generate(generate::GenerateArgs),
     /// Print the sensor catalog.
     Sensors(sensors::SensorsArgs),
     /// EMVA 1288 calibration of a measured camera (descriptor + images, or photon-transfer CSV).
@@ -71,6 +81,22 @@ pub enum Command {
     Target(target::TargetArgs),
     /// Camera-design optimizer: the TaCOS genetic algorithm or random search, resumable.
     Optimize(optimize::OptimizeArgs),
+    /// Shell completion script (bash, zsh, fish, elvish, powershell) on stdout.
+    Completions(CompletionsArgs),
+}
+
+#[derive(clap::Args, Debug)]
+pub struct CompletionsArgs {
+    /// The shell, e.g. `scene-gen completions bash > ~/.local/share/bash-completion/completions/scene-gen`.
+    #[arg(value_enum)]
+    pub shell: clap_complete::Shell,
+}
+
+/// Writes the completion script of `shell` to stdout.
+fn completions(args: &CompletionsArgs) -> Result<(), CliError> {
+    use clap::CommandFactory as _;
+    clap_complete::generate(args.shell, &mut Cli::command(), "scene-gen", &mut std::io::stdout());
+    Ok(())
 }
 
 pub fn parse() -> Cli {
@@ -78,8 +104,10 @@ pub fn parse() -> Cli {
 }
 
 pub fn run(cli: Cli) -> Result<(), CliError> {
+    progress::set_quiet(cli.quiet);
     match cli.command {
         None => generate::run(&cli.generate),
+        Some(Command::Generate(args)) => generate::run(&args),
         Some(Command::Sensors(args)) => sensors::run(&args),
         Some(Command::Calibrate(args)) => calibrate::run(&args),
         Some(Command::Gap(args)) => gap::run(&args),
@@ -91,5 +119,6 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Some(Command::Dataset(args)) => dataset::run(&args),
         Some(Command::Target(args)) => target::run(&args),
         Some(Command::Optimize(args)) => optimize::run(&args),
+        Some(Command::Completions(args)) => completions(&args),
     }
 }

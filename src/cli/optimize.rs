@@ -1,14 +1,14 @@
 //! `scene-gen optimize`: the camera-design optimizer ([`scene_gen::optimize`]).
 
-use std::io::IsTerminal as _;
 use std::path::PathBuf;
 
 use clap::{Args, ValueEnum};
-use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use scene_gen::optimize::config::OptimizeConfig;
-use scene_gen::optimize::run::{Method, Progress, RunOptions, check_dir, run as run_dir};
+use scene_gen::optimize::run::{Method, Progress as OptimizeProgress, RunOptions, check_dir, run as run_dir};
 use scene_gen::optimize::{EvalObjective, Objective};
 
+use super::house::{HouseArgs, check};
+use super::progress::Progress;
 use super::{CliError, bad_input, failure};
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
@@ -31,6 +31,10 @@ pub struct OptimizeArgs {
     /// Search method.
     #[arg(long, value_enum, default_value = "ga")]
     pub method: MethodArg,
+    /// The houses candidates are evaluated in; each option given overrides the configuration's
+    /// `[house]` value.
+    #[command(flatten)]
+    pub house: HouseArgs,
 }
 
 /// Test hook: stop after this many evaluations, as an interruption would
@@ -40,10 +44,11 @@ fn stop_after() -> Option<usize> {
 }
 
 pub fn run(args: &OptimizeArgs) -> Result<(), CliError> {
-    let config = match &args.config {
+    let mut config = match &args.config {
         Some(path) => OptimizeConfig::from_file(path).map_err(bad_input)?,
         None => OptimizeConfig::default(),
     };
+    config.house = check(args.house.over(config.house))?;
     let method = match args.method {
         MethodArg::Ga => Method::Ga,
         MethodArg::Random => Method::Random,
@@ -51,25 +56,18 @@ pub fn run(args: &OptimizeArgs) -> Result<(), CliError> {
     // Refuse an incompatible folder before anything is written.
     let resumed = check_dir(&args.out, method, &config).map_err(bad_input)?;
     let budget = config.budget();
-    let bar = ProgressBar::with_draw_target(
-        Some(budget as u64),
-        if std::io::stderr().is_terminal() { ProgressDrawTarget::stderr() } else { ProgressDrawTarget::hidden() },
-    );
-    bar.set_style(
-        ProgressStyle::with_template("{bar:30} {pos}/{len} candidates, gen {msg} [{elapsed_precise} < {eta_precise}]")
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
-    );
+    let progress = Progress::new("optimize", "candidates", budget as u64);
     if let Some(state) = &resumed {
-        bar.set_position(state.candidates.iter().filter(|c| c.origin.evaluated()).count() as u64);
+        progress.set_done(state.candidates.iter().filter(|c| c.origin.evaluated()).count() as u64);
     }
-    let mut report = |p: Progress| {
-        bar.set_position(p.evaluations as u64);
-        bar.set_message(format!("{}, best {:.4}", p.generation, p.best));
+    let mut report = |p: OptimizeProgress| {
+        progress.set_message(format!("generation {}, best {:.4}", p.generation, p.best));
+        progress.set_done(p.evaluations as u64);
     };
     let mut objective = EvalObjective::new(&config);
     let options = RunOptions { stop_after: stop_after(), progress: Some(&mut report) };
     let result = run_dir(&args.out, method, &config, &mut objective as &mut dyn Objective, options);
-    bar.finish_and_clear();
+    progress.finish();
     let summary = result.map_err(|e| if e.is_bad_input() { bad_input(e) } else { failure(e) })?;
     if !summary.complete {
         eprintln!("stopped after {} evaluations; run the same command again to resume", summary.evaluated_now);

@@ -1,11 +1,12 @@
 //! `scene-gen render`: frames of a camera walking through a generated house, by day and night.
 //!
 //! The manifest `scene.json` holds the semantic view only, not the geometry, so the house is
-//! **regenerated** from the manifest's seed and envelope (and wall thickness) with the
-//! embedded libraries and `--min-room` (default 5 m, the generator's default); the
+//! **regenerated** from the manifest's seed, envelope, wall thickness and `house` record (the
+//! smallest room and the libraries, found again by their folders and checked by digest); the
 //! regenerated manifest must equal the file field for field, and the schema and generator
 //! version must be this binary's, else the input is refused (exit 2): a house generated with
-//! another version or other libraries cannot be rebuilt faithfully.
+//! another version or other libraries cannot be rebuilt faithfully. `--seed N` with the house
+//! options builds the house directly instead, as `scene-gen --seed N` would.
 //!
 //! Frames are taken at the first `--frames` poses of the agent's walk
 //! ([`scene_gen::trajectory`]). Per frame `k` (`kkkk` zero-padded):
@@ -15,7 +16,8 @@
 //!   holding the DN unscaled (a 12-bit sensor's values stay in 0..4095). Affine noise: 8-bit
 //!   RGB.
 //! * `frame_kkkk_day.json` / `..._night.json`: intrinsics (fx, fy, cx, cy in px, OpenCV
-//!   convention: pixel centres at integer coordinates), pose, exposure,
+//!   convention: pixel centres at integer coordinates) and the matrix `K`, the pose (position,
+//!   yaw, pitch, time) and `camera_to_world` (4x4, OpenCV camera axes, [`scene_gen::view`]), exposure,
 //!   gain, illuminance on the 0.75 m plane (the target after scaling and the value measured
 //!   before), and the image mean and variance in DN (population variance over every value).
 //! * `frame_kkkk_depth.png`: 16-bit z-depth in millimetres; 0 = no hit or beyond 65.535 m.
@@ -39,16 +41,19 @@ use scene_gen::config::GeneratorConfig;
 use scene_gen::dataset::png::{capture_png, depth_png, instances_png};
 use scene_gen::export::write_atomic;
 use scene_gen::generate::generate;
-use scene_gen::library::Library;
+use scene_gen::house::HouseOptions;
 use scene_gen::lights::TARGET_PLANE_M;
 use scene_gen::manifest::Manifest;
 use scene_gen::radiometry::SensorImage;
 use scene_gen::render::RenderSettings;
-use scene_gen::scene::{LightGroup, MANIFEST_SCHEMA, Scene};
+use scene_gen::scene::{LibraryId, LightGroup, MANIFEST_SCHEMA, Scene};
 use scene_gen::sensor::Catalog;
 use scene_gen::trajectory::{self, Pose, TrajectoryParams};
+use scene_gen::view::ViewGeometry;
 use serde::Serialize;
 
+use super::house::HouseArgs;
+use super::progress::Progress;
 use super::{CliError, bad_input, failure};
 
 /// Which scenarios to render.
@@ -73,8 +78,12 @@ pub enum Quality {
 #[derive(Args, Debug)]
 pub struct RenderArgs {
     /// The house's manifest, DIR/scene.json, as `scene-gen --seed N` wrote it.
-    #[arg(long)]
-    pub scene: PathBuf,
+    #[arg(long, required_unless_present = "seed")]
+    pub scene: Option<PathBuf>,
+    /// Build the house of this seed here instead of reading a manifest (with the house options
+    /// below, as `scene-gen --seed N` would).
+    #[arg(long, conflicts_with = "scene")]
+    pub seed: Option<u64>,
     /// Camera: a TOML file or `SENSOR[,focal_mm=F][,pitch_deg=P][,height_m=H][,key=value...]`.
     #[arg(long)]
     pub camera: String,
@@ -91,9 +100,11 @@ pub struct RenderArgs {
     pub max_width: Option<u32>,
     #[arg(long, value_enum, default_value_t = Quality::Standard)]
     pub quality: Quality,
-    /// --min-room the house was generated with.
-    #[arg(long, default_value_t = 5.0)]
-    pub min_room: f32,
+    /// The house options. With `--scene` they default to the manifest's record; `--rooms` and
+    /// `--furniture` then say where a library folder is now (its digest must match), and an
+    /// `--envelope` or `--min-room` other than the manifest's is refused.
+    #[command(flatten)]
+    pub house: HouseArgs,
 }
 
 #[derive(Serialize)]
@@ -129,6 +140,9 @@ struct Sidecar<'a> {
     f_number: f32,
     intrinsics: Intrinsics,
     pose: PoseOut,
+    /// `K` and `camera_to_world` (conventions in `scene_gen::view`).
+    #[serde(flatten)]
+    view: ViewGeometry,
     exposure_s: f64,
     gain_db: f64,
     noise: scene_gen::camera_spec::NoiseKind,
@@ -141,8 +155,8 @@ struct Sidecar<'a> {
     variance_dn2: f64,
 }
 
-/// Reads the manifest and regenerates its house.
-fn load_scene(path: &Path, min_room_m: f32) -> Result<Scene, CliError> {
+/// Reads the manifest and regenerates its house with the options it records, or those given.
+fn load_scene(path: &Path, given: &HouseArgs) -> Result<Scene, CliError> {
     let text = std::fs::read_to_string(path)
         .with_context(|| format!("cannot read --scene {}", path.display()))
         .map_err(bad_input)?;
@@ -160,24 +174,76 @@ fn load_scene(path: &Path, min_room_m: f32) -> Result<Scene, CliError> {
             manifest.generator_version
         )));
     }
-    let library = Library::embedded().map_err(failure)?;
-    let config = GeneratorConfig {
-        seed: manifest.seed,
-        envelope: manifest.envelope,
-        min_room_m,
-        wall_thickness_m: manifest.wall_thickness_m,
-    };
+    let options = recorded_options(path, &manifest, given)?;
+    let library = options.library().map_err(|e| bad_input(anyhow!(e)))?;
+    if let Some(record) = &manifest.house {
+        for (what, recorded, now) in
+            [("rooms", &record.rooms, &library.rooms_id), ("furniture", &record.furniture, &library.furniture_id)]
+        {
+            if recorded.digest != now.digest {
+                return Err(bad_input(anyhow!(
+                    "{}: the house was made with the {what} library {} ({}), the one given here is {} ({}); \
+                     pass --{what} with the folder it was made with",
+                    path.display(),
+                    recorded.folder.as_deref().unwrap_or("embedded"),
+                    recorded.digest,
+                    now.folder.as_deref().unwrap_or("embedded"),
+                    now.digest
+                )));
+            }
+        }
+    }
+    let config = GeneratorConfig { wall_thickness_m: manifest.wall_thickness_m, ..options.config(manifest.seed) };
     config.validate().map_err(bad_input)?;
     let scene = generate(&config, &library).map_err(bad_input)?;
-    if Manifest::of(&scene) != manifest {
+    // The libraries matched by digest; where their folders are now does not matter.
+    let regenerated = Manifest { house: manifest.house.clone(), ..Manifest::of(&scene) };
+    if regenerated != manifest {
         return Err(bad_input(anyhow!(
-            "{}: the house regenerated from seed {} and its envelope differs from the manifest \
-             (generated with another --min-room, other --rooms/--furniture libraries, or edited?)",
+            "{}: the house regenerated from seed {} and its recorded options differs from the manifest \
+             (edited, or written without its options by an older build?)",
             path.display(),
             manifest.seed
         )));
     }
     Ok(scene)
+}
+
+/// The house options of a manifest: its record, with the libraries' folders given on the
+/// command line; an envelope or room size that contradicts the record is refused.
+fn recorded_options(path: &Path, manifest: &Manifest, given: &HouseArgs) -> Result<HouseOptions, CliError> {
+    if let Some(envelope) = given.envelope.filter(|e| *e != manifest.envelope) {
+        return Err(bad_input(anyhow!(
+            "--envelope {envelope} contradicts {}, whose house has the envelope {}",
+            path.display(),
+            manifest.envelope
+        )));
+    }
+    let record = manifest.house.as_ref();
+    let min_room_m = match (record.map(|r| r.min_room_m), given.min_room) {
+        (Some(recorded), Some(m)) if recorded != m => {
+            return Err(bad_input(anyhow!(
+                "--min-room {m} contradicts {}, whose house was made with --min-room {recorded}",
+                path.display()
+            )));
+        }
+        (Some(recorded), _) => recorded,
+        (None, given) => given.unwrap_or(HouseOptions::default().min_room_m),
+    };
+    let folder = |id: Option<&LibraryId>| id.and_then(|id| id.folder.as_ref()).map(PathBuf::from);
+    Ok(HouseOptions {
+        envelope: manifest.envelope,
+        min_room_m,
+        rooms: given.rooms.clone().or_else(|| folder(record.map(|r| &r.rooms))),
+        furniture: given.furniture.clone().or_else(|| folder(record.map(|r| &r.furniture))),
+    })
+}
+
+/// The house `--seed` and the house options ask for.
+fn build_scene(seed: u64, given: &HouseArgs) -> Result<Scene, CliError> {
+    let options = given.checked()?;
+    let library = options.library().map_err(|e| bad_input(anyhow!(e)))?;
+    generate(&options.config(seed), &library).map_err(bad_input)
 }
 
 pub fn run(args: &RenderArgs) -> Result<(), CliError> {
@@ -194,7 +260,11 @@ pub fn run(args: &RenderArgs) -> Result<(), CliError> {
     }
     let catalog = Catalog::embedded();
     let resolved = spec.resolve(&catalog).map_err(bad_input)?;
-    let scene = load_scene(&args.scene, args.min_room)?;
+    let scene = match (&args.scene, args.seed) {
+        (Some(path), _) => load_scene(path, &args.house)?,
+        (None, Some(seed)) => build_scene(seed, &args.house)?,
+        (None, None) => return Err(bad_input(anyhow!("give --scene DIR/scene.json or --seed N"))),
+    };
 
     let params = TrajectoryParams { height_m: spec.height_m, ..TrajectoryParams::default() };
     let walk = trajectory::plan(&scene, &params).map_err(failure)?;
@@ -213,6 +283,7 @@ pub fn run(args: &RenderArgs) -> Result<(), CliError> {
         Capture::new(&scene, &resolved, &groups, settings, params.speed_m_per_s, noise_label).map_err(failure)?;
 
     let mut files: Vec<(String, Vec<u8>)> = Vec::new();
+    let progress = Progress::new("render", "frames", u64::from(args.frames));
     for k in 0..args.frames {
         let pose: Pose = walk.poses[(k as usize).min(walk.poses.len() - 1)];
         let camera = capture.pinhole(&pose);
@@ -232,7 +303,9 @@ pub fn run(args: &RenderArgs) -> Result<(), CliError> {
         }
         files.push((format!("{stem}_depth.png"), depth_png(&frame)));
         files.push((format!("{stem}_instances.png"), instances_png(&frame)));
+        progress.inc(1);
     }
+    progress.finish();
 
     let mut walk_json = serde_json::to_string_pretty(&walk).map_err(failure)?;
     walk_json.push('\n');
@@ -294,6 +367,7 @@ fn sidecar<'a>(
             pitch_deg: spec.pitch_deg,
             time_s: pose.time_s,
         },
+        view: ViewGeometry::of(&resolved.camera_at(pose)),
         exposure_s: spec.exposure_s,
         gain_db: scenario.gain_db,
         noise: spec.noise,

@@ -7,6 +7,7 @@ use anyhow::anyhow;
 use clap::Args;
 use scene_gen::serve::{PROTOCOL, ServeDefaults, parse_seeds, serve};
 
+use super::house::HouseArgs;
 use super::{CliError, bad_input, failure};
 
 #[derive(Args, Debug)]
@@ -21,6 +22,9 @@ pub struct ServeArgs {
     /// `max_width_px` wins).
     #[arg(long, default_value_t = scene_gen::evaluate::DEFAULT_MAX_WIDTH_PX)]
     pub max_width: u32,
+    /// The houses every request is evaluated in.
+    #[command(flatten)]
+    pub house: HouseArgs,
 }
 
 pub fn run(args: &ServeArgs) -> Result<(), CliError> {
@@ -31,7 +35,8 @@ pub fn run(args: &ServeArgs) -> Result<(), CliError> {
     if args.max_width == 0 {
         return Err(bad_input(anyhow!("--max-width must be at least 1")));
     }
-    let defaults = ServeDefaults { seeds, frames: args.frames, max_width: args.max_width };
+    let house = args.house.checked()?;
+    let defaults = ServeDefaults { seeds, frames: args.frames, max_width: args.max_width, house };
     let stdin = std::io::stdin();
     if stdin.is_terminal() {
         eprintln!(

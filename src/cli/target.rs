@@ -20,6 +20,7 @@ use scene_gen::export::write_atomic;
 use scene_gen::sensor::Catalog;
 use scene_gen::target::{self, LoopOptions, chart};
 
+use super::progress::activity;
 use super::sensors::emit;
 use super::{CliError, bad_input, failure};
 
@@ -164,7 +165,8 @@ fn run_gap(args: &TargetGapArgs) -> Result<(), CliError> {
     }
     let resolved = resolve(&args.geometry)?;
     let options = LoopOptions { seed: args.seed, ..LoopOptions::default() };
-    let result = target::run(&args.measured, &resolved, args.geometry.distance_m, &options).map_err(bad_input)?;
+    let result = activity("target gap", || target::run(&args.measured, &resolved, args.geometry.distance_m, &options))
+        .map_err(bad_input)?;
     let summary = result.json();
     let text = serde_json::to_string_pretty(&summary).map_err(failure)?;
     std::fs::create_dir_all(&args.out)

@@ -17,6 +17,7 @@
 //!   evaluator runs.
 //! * [`capture`]: the one place that chains them: a house, a camera and lighting scenarios in,
 //!   frames out.
+//! * [`view`]: a frame's intrinsics and camera-to-world pose, in the conventions datasets carry.
 
 pub mod camera_spec;
 pub mod capture;
@@ -24,3 +25,4 @@ pub mod isp;
 pub mod optics;
 pub mod radiometry;
 pub mod sensor;
+pub mod view;

@@ -89,7 +89,7 @@ use scene_gen_perception::detection::{
 };
 use scene_gen_perception::orb::{FundamentalRansac, Orb, match_and_verify};
 use scene_gen_render::{Frame, RenderError, RenderSettings, Renderer, ShadingRate};
-use scene_gen_scene::house::{HouseError, WalkedHouse, embedded_library, walked_house};
+use scene_gen_scene::house::{HouseError, HouseOptions, WalkedHouse, load_library, walked_house_with};
 use scene_gen_scene::library::Library;
 use scene_gen_scene::scene::{LightGroup, ObjectClass, Scene, THRESHOLD_CLASS_ID, THRESHOLD_CLASS_NAME};
 use scene_gen_scene::trajectory::{self, Trajectory, TrajectoryParams};
@@ -249,6 +249,9 @@ pub struct EvalConfig {
     /// An external detector instead of the built-in [`DetectabilityModel`].
     pub detector: Option<ExternalDetector>,
     pub weights: FitnessWeights,
+    /// The houses: envelope, smallest room, libraries (left out of the record when default).
+    #[serde(skip_serializing_if = "HouseOptions::is_default")]
+    pub house: HouseOptions,
 }
 
 impl Default for EvalConfig {
@@ -265,6 +268,7 @@ impl Default for EvalConfig {
             min_usable_images: None,
             detector: None,
             weights: FitnessWeights::default(),
+            house: HouseOptions::default(),
         }
     }
 }
@@ -388,11 +392,44 @@ pub fn evaluate(spec: &CameraSpec, seeds: &[u64], config: &EvalConfig) -> Result
     evaluate_traced(spec, seeds, config).map(|(e, _)| e)
 }
 
+/// What an evaluation reports while it runs: poses planned and poses rendered and scored.
+pub trait EvalProgress: Sync {
+    /// `poses` more poses are planned (one house's worth).
+    fn planned(&self, _poses: u64) {}
+    /// One pose is rendered and scored.
+    fn done(&self) {}
+}
+
+impl EvalProgress for () {}
+
+/// As [`evaluate`], reporting its progress to `progress`.
+///
+/// # Errors
+/// As [`evaluate`].
+pub fn evaluate_with_progress(
+    spec: &CameraSpec,
+    seeds: &[u64],
+    config: &EvalConfig,
+    progress: &dyn EvalProgress,
+) -> Result<Evaluation, EvalError> {
+    cached(spec, seeds, config, progress).map(|(e, _)| e)
+}
+
 /// As [`evaluate`], and whether the result came from the cache.
 ///
 /// # Errors
 /// As [`evaluate`].
 pub fn evaluate_traced(spec: &CameraSpec, seeds: &[u64], config: &EvalConfig) -> Result<(Evaluation, bool), EvalError> {
+    cached(spec, seeds, config, &())
+}
+
+/// The cached evaluation: the stored result of the same candidate and configuration, or a new one.
+fn cached(
+    spec: &CameraSpec,
+    seeds: &[u64],
+    config: &EvalConfig,
+    progress: &dyn EvalProgress,
+) -> Result<(Evaluation, bool), EvalError> {
     let (spec, resolved) = prepare(spec, seeds, config)?;
     // Normalised key: the resolved spec (canonical sensor name, defaults filled in) as JSON,
     // and every serialised configuration field (speed, output rule, usable floor, detector...).
@@ -409,7 +446,7 @@ pub fn evaluate_traced(spec: &CameraSpec, seeds: &[u64], config: &EvalConfig) ->
     if let Some(hit) = cache.lock().unwrap_or_else(std::sync::PoisonError::into_inner).get(&key) {
         return Ok((hit.clone(), true));
     }
-    let result = compute(&spec, &resolved, seeds, config)?;
+    let result = compute(&spec, &resolved, seeds, config, progress)?;
     cache.lock().unwrap_or_else(std::sync::PoisonError::into_inner).insert(key, result.clone());
     Ok((result, false))
 }
@@ -420,7 +457,7 @@ pub fn evaluate_traced(spec: &CameraSpec, seeds: &[u64], config: &EvalConfig) ->
 /// As [`evaluate`].
 pub fn evaluate_uncached(spec: &CameraSpec, seeds: &[u64], config: &EvalConfig) -> Result<Evaluation, EvalError> {
     let (spec, resolved) = prepare(spec, seeds, config)?;
-    compute(&spec, &resolved, seeds, config)
+    compute(&spec, &resolved, seeds, config, &())
 }
 
 /// Checks the request and resolves the camera against the catalog; shared by the cached and
@@ -440,6 +477,7 @@ fn prepare(spec: &CameraSpec, seeds: &[u64], config: &EvalConfig) -> Result<(Cam
     if !(config.speed_m_s.is_finite() && config.speed_m_s > 0.0) {
         return Err(EvalError::BadSpeed(config.speed_m_s));
     }
+    config.house.validate().map_err(HouseError::Options)?;
     let resolved = spec.resolve(&Catalog::embedded())?;
     Ok((spec, resolved))
 }
@@ -811,6 +849,7 @@ impl Tally {
         spec: &CameraSpec,
         resolved: &ResolvedCamera,
         config: &EvalConfig,
+        progress: &dyn EvalProgress,
     ) -> Result<(), EvalError> {
         let setup = Instant::now();
         let params = TrajectoryParams {
@@ -818,7 +857,7 @@ impl Tally {
             speed_m_per_s: config.speed_m_s as f32,
             ..TrajectoryParams::default()
         };
-        let WalkedHouse { scene, walk } = walked_house(library, seed, &params)?;
+        let WalkedHouse { scene, walk } = walked_house_with(library, &config.house.config(seed), &params)?;
         let noise_label = format!("evaluate/{seed}/");
         let capture =
             Capture::new(&scene, resolved, &SCENARIO_GROUPS, config.render, params.speed_m_per_s, noise_label)?;
@@ -833,8 +872,16 @@ impl Tally {
         self.timing.setup += secs(setup);
 
         let spare_frames: Mutex<Vec<Frame>> = Mutex::new(Vec::new());
-        let results: Vec<Result<PoseResult, EvalError>> =
-            plan.jobs.par_iter().map(|&job| render_pose(&house, config, job, &spare_frames)).collect();
+        progress.planned(plan.jobs.len() as u64);
+        let results: Vec<Result<PoseResult, EvalError>> = plan
+            .jobs
+            .par_iter()
+            .map(|&job| {
+                let result = render_pose(&house, config, job, &spare_frames);
+                progress.done();
+                result
+            })
+            .collect();
         let mut by_pose: BTreeMap<usize, PoseResult> = BTreeMap::new();
         for (&(i, _), r) in plan.jobs.iter().zip(results) {
             let r = r?;
@@ -843,6 +890,7 @@ impl Tally {
             self.timing.detection += r.times[2];
             by_pose.insert(i, r);
         }
+        log::info!("evaluate: house {seed}: {} poses rendered and scored", plan.jobs.len());
         self.add_thresholds(&by_pose, &plan.crossings);
         self.add_orb(seed, &plan.anchors, &by_pose, (resolved.width_px, resolved.height_px));
         self.add_detections(seed, &plan.anchors, &by_pose, (resolved.width_px, resolved.height_px))
@@ -993,13 +1041,14 @@ fn compute(
     resolved: &ResolvedCamera,
     seeds: &[u64],
     config: &EvalConfig,
+    progress: &dyn EvalProgress,
 ) -> Result<Evaluation, EvalError> {
     COMPUTED.fetch_add(1, Ordering::SeqCst);
     let wall = Instant::now();
-    let library = embedded_library()?;
+    let library = load_library(&config.house)?;
     let mut tally = Tally::new(resolved, config)?;
     for &seed in seeds {
-        tally.add_house(&library, seed, spec, resolved, config)?;
+        tally.add_house(&library, seed, spec, resolved, config, progress)?;
     }
     if let Some(det) = &config.detector {
         tally.run_external_detector(det)?;
@@ -1028,12 +1077,12 @@ mod tests {
     /// the camera) for a downward and a level camera.
     #[test]
     fn threshold_counts_in_boxes_equal_whole_frame_counts() {
-        let library = embedded_library().unwrap();
+        let library = scene_gen_scene::house::embedded_library().unwrap();
         for spec in ["IMX174,focal_mm=2.5,pitch_deg=-40", "IMX174,focal_mm=6,pitch_deg=0"] {
             let spec = CameraSpec { max_width_px: Some(96), ..CameraSpec::from_inline(spec).unwrap() };
             let resolved = spec.resolve(&Catalog::embedded()).unwrap();
             let params = TrajectoryParams { height_m: resolved.spec.height_m, ..TrajectoryParams::default() };
-            let WalkedHouse { scene, walk } = walked_house(&library, 1, &params).unwrap();
+            let WalkedHouse { scene, walk } = scene_gen_scene::house::walked_house(&library, 1, &params).unwrap();
             let renderer = Renderer::new(&scene, RenderSettings::preview());
             let ids: BTreeSet<u32> = scene.thresholds.iter().map(|t| t.instance_id).collect();
             let mut seen = 0;

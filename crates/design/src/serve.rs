@@ -85,6 +85,7 @@ use crate::evaluate::{self, EvalConfig, EvalError, Fitness, FitnessWeights, Scen
 use scene_gen_camera::camera_spec::{CameraSpec, SpecError};
 use scene_gen_camera::sensor::Catalog;
 use scene_gen_core::seeds::SeedRange;
+use scene_gen_scene::house::HouseOptions;
 
 /// The protocol version every `describe` response names.
 pub const PROTOCOL: &str = "scene-gen/serve/1";
@@ -104,6 +105,8 @@ pub struct ServeDefaults {
     pub seeds: Vec<u64>,
     pub frames: u32,
     pub max_width: u32,
+    /// The houses every request is evaluated in (`serve --envelope ...`).
+    pub house: HouseOptions,
 }
 
 impl Default for ServeDefaults {
@@ -113,6 +116,7 @@ impl Default for ServeDefaults {
             seeds: vec![0],
             frames: evaluate::DEFAULT_FRAMES_PER_SCENE,
             max_width: evaluate::DEFAULT_MAX_WIDTH_PX,
+            house: HouseOptions::default(),
         }
     }
 }
@@ -206,6 +210,7 @@ pub struct Job {
     pub frames: u32,
     pub max_width: u32,
     pub weights: FitnessWeights,
+    pub house: HouseOptions,
 }
 
 impl Job {
@@ -216,6 +221,7 @@ impl Job {
             frames_per_scene: self.frames,
             max_width_px: Some(self.max_width),
             weights: self.weights,
+            house: self.house.clone(),
             ..EvalConfig::default()
         }
     }
@@ -264,6 +270,8 @@ pub struct DefaultsOut {
     pub seeds: Vec<u64>,
     pub frames: u32,
     pub max_width: u32,
+    #[serde(skip_serializing_if = "HouseOptions::is_default")]
+    pub house: HouseOptions,
 }
 
 /// A describe answer.
@@ -396,7 +404,7 @@ pub fn job_of(request: &Request, defaults: &ServeDefaults, catalog: &Catalog) ->
     let camera = camera_of(camera_field, catalog)?;
     // The request's width wins, then the camera's own, then the server's.
     let max_width = if request.max_width.is_some() { max_width } else { camera.max_width_px.unwrap_or(max_width) };
-    Ok(Job { camera, seeds, frames, max_width, weights })
+    Ok(Job { camera, seeds, frames, max_width, weights, house: defaults.house.clone() })
 }
 
 /// The describe answer.
@@ -413,7 +421,12 @@ pub fn describe(id: Value, defaults: &ServeDefaults, catalog: &Catalog) -> Descr
             focal_mm: Gene::Float { min: FOCAL_RANGE_MM[0], max: FOCAL_RANGE_MM[1] },
             pitch_deg: Gene::Float { min: PITCH_RANGE_DEG[0], max: PITCH_RANGE_DEG[1] },
         },
-        defaults: DefaultsOut { seeds: defaults.seeds.clone(), frames: defaults.frames, max_width: defaults.max_width },
+        defaults: DefaultsOut {
+            seeds: defaults.seeds.clone(),
+            frames: defaults.frames,
+            max_width: defaults.max_width,
+            house: defaults.house.clone(),
+        },
         weights: FitnessWeights::default(),
     }
 }
@@ -487,7 +500,7 @@ pub struct Answer {
 #[derive(Clone, Debug, PartialEq)]
 pub enum Parsed {
     Describe,
-    Evaluate(Job),
+    Evaluate(Box<Job>),
 }
 
 /// Parses and checks one request line: `Ok(None)` for a blank line, else the request with its
@@ -530,7 +543,7 @@ pub fn parse_request(
             Parsed::Describe
         }
         Op::Evaluate => match job_of(&request, defaults, catalog) {
-            Ok(job) => Parsed::Evaluate(job),
+            Ok(job) => Parsed::Evaluate(Box::new(job)),
             Err(e) => return Err((id, e)),
         },
     };
@@ -685,7 +698,7 @@ mod tests {
     #[test]
     fn jobs_take_defaults_and_overrides() {
         let catalog = Catalog::embedded();
-        let defaults = ServeDefaults { seeds: vec![3, 4], frames: 6, max_width: 100 };
+        let defaults = ServeDefaults { seeds: vec![3, 4], frames: 6, max_width: 100, house: HouseOptions::default() };
         let req: Request = serde_json::from_str(r#"{"camera": "imx174,focal_mm=6"}"#).unwrap();
         let job = job_of(&req, &defaults, &catalog).unwrap();
         assert_eq!(job.camera.sensor, "IMX174", "the catalog's spelling");

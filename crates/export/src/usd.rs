@@ -661,6 +661,7 @@ mod tests {
             seed: 3,
             envelope: Envelope::default(),
             wall_thickness_m: 0.1,
+            house: scene_gen_scene::scene::HouseRecord::default(),
             rooms: vec![Room { id: 0, room_type: "bedroom".into(), min: Vec2::ZERO, max: Vec2::new(5.0, 5.0) }],
             walls: vec![],
             doors: vec![Door {

@@ -209,8 +209,21 @@ pub fn greedy<P: Problem + 'static>(problem: &mut P, start: P::Model) -> Outcome
             }
             trials.push(Trial { round, effect: p.effect.name(), chi2_drop, penalty, model: p.model, sim: full_sim });
         }
-        let Some(b) = best else { break };
+        let Some(b) = best else {
+            log::info!(
+                "effect search, round {round}: {} candidates, none pays its penalty; done",
+                trials.len() - first
+            );
+            break;
+        };
         let trial = &trials[b];
+        log::info!(
+            "effect search, round {round}: {} candidates, adds {} (statistic drop {:.1}, penalty {:.1})",
+            trials.len() - first,
+            trial.effect,
+            trial.chi2_drop,
+            trial.penalty
+        );
         let (effect, candidate) = (trial.effect, trial.model.clone());
         let candidate_sim = trial.sim.clone().expect("the best trial was simulated in full");
         let param_count = problem.effects().iter().find(|e| e.name() == effect).map_or(0, |e| e.param_count());

@@ -17,6 +17,7 @@ pub fn empty_scene() -> Scene {
         seed: 0,
         envelope: Envelope::default(),
         wall_thickness_m: 0.0,
+        house: scene_gen_scene::scene::HouseRecord::default(),
         rooms: Vec::new(),
         walls: Vec::new(),
         doors: Vec::new(),

@@ -9,7 +9,7 @@ use crate::floorplan::{self, FloorplanError};
 use crate::library::Library;
 use crate::materials::MaterialCatalog;
 use crate::placement::{self, PlacementError};
-use crate::scene::{Geometry, Scene};
+use crate::scene::{Geometry, HouseRecord, Scene};
 use crate::{decor, lights, structure};
 
 /// Why a scene could not be generated.
@@ -28,6 +28,7 @@ pub enum GenerateError {
 /// Generates the house for `config` from `library`.
 pub fn generate(config: &GeneratorConfig, library: &Library) -> Result<Scene, GenerateError> {
     config.validate()?;
+    let started = std::time::Instant::now();
     let mut geometry = Geometry::default();
     let mut materials = MaterialCatalog::new(config.seed);
     let plan = floorplan::generate(config, &library.rooms)?;
@@ -37,10 +38,24 @@ pub fn generate(config: &GeneratorConfig, library: &Library) -> Result<Scene, Ge
         placement::place(config, &plan, &thresholds, library, first_object_instance, &mut materials, &mut geometry)?;
     decor::build(config, &plan, &objects, &mut materials, &mut geometry);
     let lights = lights::build(config, &plan, &objects);
+    log::info!(
+        "house {}: {} rooms, {} doors, {} objects, {} mesh triangles in {:.0} ms",
+        config.seed,
+        plan.rooms.len(),
+        plan.doors.len(),
+        objects.len(),
+        geometry.meshes.iter().map(|m| m.primitives.iter().map(|p| p.indices.len() / 3).sum::<usize>()).sum::<usize>(),
+        started.elapsed().as_secs_f64() * 1e3
+    );
     Ok(Scene {
         seed: config.seed,
         envelope: config.envelope,
         wall_thickness_m: config.wall_thickness_m,
+        house: HouseRecord {
+            min_room_m: config.min_room_m,
+            rooms: library.rooms_id.clone(),
+            furniture: library.furniture_id.clone(),
+        },
         rooms: plan.rooms,
         walls: plan.walls,
         doors: plan.doors,

@@ -3,7 +3,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::scene::{Door, Envelope, Light, MANIFEST_SCHEMA, Object, Room, Scene, Threshold, Wall, Window};
+use crate::scene::{Door, Envelope, HouseRecord, Light, MANIFEST_SCHEMA, Object, Room, Scene, Threshold, Wall, Window};
 
 /// `scene.json`, field for field.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -13,6 +13,10 @@ pub struct Manifest {
     pub generator_version: String,
     pub envelope: Envelope,
     pub wall_thickness_m: f32,
+    /// The generator's options and libraries; absent in manifests written before it was
+    /// recorded (readers then assume the defaults).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub house: Option<HouseRecord>,
     pub rooms: Vec<Room>,
     pub walls: Vec<Wall>,
     pub doors: Vec<Door>,
@@ -32,6 +36,7 @@ impl Manifest {
             generator_version: env!("CARGO_PKG_VERSION").to_string(),
             envelope: scene.envelope,
             wall_thickness_m: scene.wall_thickness_m,
+            house: Some(scene.house.clone()),
             rooms: scene.rooms.clone(),
             walls: scene.walls.clone(),
             doors: scene.doors.clone(),

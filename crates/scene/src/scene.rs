@@ -104,6 +104,50 @@ impl Default for Envelope {
     }
 }
 
+impl std::fmt::Display for Envelope {
+    /// `WIDTHxDEPTHxHEIGHT` in metres, the form `--envelope` takes.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}x{}x{}", self.width_m, self.depth_m, self.height_m)
+    }
+}
+
+impl std::str::FromStr for Envelope {
+    type Err = String;
+
+    /// Parses `WIDTHxDEPTHxHEIGHT` in metres, e.g. `15x15x3`.
+    fn from_str(text: &str) -> Result<Envelope, String> {
+        let parts: Vec<&str> = text.split(['x', 'X']).collect();
+        let [w, d, h] = parts.as_slice() else {
+            return Err(format!("'{text}' is not WIDTHxDEPTHxHEIGHT in metres, e.g. 15x15x3"));
+        };
+        let num = |s: &str, what: &str| {
+            s.trim().parse::<f32>().map_err(|_| format!("'{s}' in '{text}' is not a number ({what})"))
+        };
+        Ok(Envelope { width_m: num(w, "width")?, depth_m: num(d, "depth")?, height_m: num(h, "height")? })
+    }
+}
+
+/// Where a library of a house came from and what it held: enough to find it again and to
+/// tell whether it is the same.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct LibraryId {
+    /// The folder as it was given (`--rooms`, `--furniture`); `null` for the embedded library.
+    pub folder: Option<String>,
+    /// `fnv1a64:` and 16 hex digits over every file's path (relative to the library root)
+    /// and bytes, in path order.
+    pub digest: String,
+}
+
+/// What a house was generated with beyond its seed, envelope and wall thickness: what a
+/// program needs to rebuild the same house.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct HouseRecord {
+    /// `--min-room`: the smallest room side, at wall centre lines.
+    pub min_room_m: f32,
+    pub rooms: LibraryId,
+    pub furniture: LibraryId,
+}
+
 /// A rectangular room; `min`/`max` are its footprint at the wall centre lines.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Room {
@@ -420,6 +464,8 @@ pub struct Scene {
     pub seed: u64,
     pub envelope: Envelope,
     pub wall_thickness_m: f32,
+    /// The generator's options and libraries this house was made with.
+    pub house: HouseRecord,
     pub rooms: Vec<Room>,
     pub walls: Vec<Wall>,
     pub doors: Vec<Door>,

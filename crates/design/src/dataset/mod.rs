@@ -37,7 +37,7 @@ pub mod png;
 pub mod rle;
 pub mod shard;
 
-use std::collections::BTreeSet;
+use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
 use rayon::prelude::*;
@@ -46,9 +46,10 @@ use serde::{Deserialize, Serialize};
 use scene_gen_camera::camera_spec::{CameraSpec, ResolvedCamera, SpecError};
 use scene_gen_camera::capture::{Capture, CaptureError};
 use scene_gen_camera::sensor::Catalog;
+use scene_gen_camera::view::ViewGeometry;
 use scene_gen_perception::detection::{GroundTruthConfig, frame_ground_truth};
 use scene_gen_render::RenderSettings;
-use scene_gen_scene::house::{HouseError, WalkedHouse, embedded_library, walked_house};
+use scene_gen_scene::house::{HouseError, HouseOptions, WalkedHouse, load_library, walked_house_with};
 use scene_gen_scene::scene::{LightGroup, ObjectClass, THRESHOLD_CLASS_ID, THRESHOLD_CLASS_NAME};
 use scene_gen_scene::trajectory::TrajectoryParams;
 
@@ -200,6 +201,9 @@ pub struct DatasetSpec {
     pub frames: FrameSelection,
     pub quality: Quality,
     pub ground_truth: GroundTruthConfig,
+    /// The houses: envelope, smallest room, libraries (absent when default).
+    #[serde(default, skip_serializing_if = "HouseOptions::is_default")]
+    pub house: HouseOptions,
 }
 
 impl DatasetSpec {
@@ -222,6 +226,7 @@ impl DatasetSpec {
             frames,
             quality,
             ground_truth: GroundTruthConfig::default(),
+            house: HouseOptions::default(),
         }
     }
 
@@ -273,7 +278,41 @@ pub struct FrameLabels {
     pub pose: usize,
     pub width: u32,
     pub height: u32,
+    /// Intrinsics and camera-to-world pose ([`scene_gen_camera::view`] states the conventions);
+    /// absent in labels written before frames carried them.
+    #[serde(flatten, default, skip_serializing_if = "Option::is_none")]
+    pub view: Option<ViewGeometry>,
+    /// Time along the walk, s.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub time_s: Option<f32>,
+    /// Exposure time, s.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub exposure_s: Option<f64>,
+    /// Analogue gain of each lighting's image, dB.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub gain_db: BTreeMap<Lighting, f64>,
     pub objects: Vec<ObjectLabel>,
+}
+
+/// The conventions of every `K` and `camera_to_world` a dataset writes.
+pub const VIEW_AXES: &str = "world Z up, metres; camera x right, y down, z forward (OpenCV); pixel centres at integers";
+
+/// `trajectories/seed_SSSSSSSSSS.json`: the camera path of one sequence (a seed's frames).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct SequenceTrajectory {
+    pub seed: u64,
+    /// The conventions of `K` and `camera_to_world` ([`VIEW_AXES`]).
+    pub axes: &'static str,
+    pub frames: Vec<TrajectoryFrame>,
+}
+
+/// One frame of a [`SequenceTrajectory`].
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct TrajectoryFrame {
+    pub pose: usize,
+    pub time_s: f32,
+    #[serde(flatten)]
+    pub view: ViewGeometry,
 }
 
 /// A seed's fragment: the labels of all its frames, in pose order.
@@ -298,6 +337,14 @@ pub struct CocoImageOut {
     pub depth_file: String,
     /// Relative to `DIR`.
     pub mask_file: String,
+    /// Intrinsics and camera-to-world pose (absent for labels written before frames had them).
+    #[serde(flatten, default, skip_serializing_if = "Option::is_none")]
+    pub view: Option<ViewGeometry>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub exposure_s: Option<f64>,
+    /// This image's analogue gain, dB.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gain_db: Option<f64>,
 }
 
 /// An annotation of the merged COCO file.
@@ -483,6 +530,12 @@ impl Dataset {
         self.dir.join(format!("fragments/{}.json", seed_dir(seed)))
     }
 
+    /// `DIR/trajectories/seed_SSSSSSSSSS.json`: the camera path of the seed's frames.
+    #[must_use]
+    pub fn trajectory_path(&self, seed: u64) -> PathBuf {
+        self.dir.join(format!("trajectories/{}.json", seed_dir(seed)))
+    }
+
     /// `DIR/annotations/instances_<lighting>.json`.
     #[must_use]
     pub fn annotations_path(&self, lighting: Lighting) -> PathBuf {
@@ -514,9 +567,9 @@ impl Dataset {
             }
             return Ok(SeedReport { frames: n, rendered: 0, skipped: n });
         }
-        let library = embedded_library()?;
+        let library = load_library(&self.spec.house)?;
         let params = TrajectoryParams { height_m: self.spec.camera.height_m, ..TrajectoryParams::default() };
-        let WalkedHouse { scene, walk } = walked_house(&library, seed, &params)?;
+        let WalkedHouse { scene, walk } = walked_house_with(&library, &self.spec.house.config(seed), &params)?;
         if walk.poses.len() > MAX_POSES {
             return Err(DatasetError::Limit {
                 seed,
@@ -572,7 +625,23 @@ impl Dataset {
                     }
                     self.write(&self.dir.join(Self::depth_rel(seed, p)), &png::depth_png(&frame))?;
                     self.write(&self.dir.join(Self::mask_rel(seed, p)), &png::instances_png(&frame))?;
-                    let labels = FrameLabels { seed, pose: p, width: frame.width, height: frame.height, objects };
+                    let labels = FrameLabels {
+                        seed,
+                        pose: p,
+                        width: frame.width,
+                        height: frame.height,
+                        view: Some(ViewGeometry::of(&camera)),
+                        time_s: Some(pose.time_s),
+                        exposure_s: Some(self.resolved.spec.exposure_s),
+                        gain_db: self
+                            .spec
+                            .lighting
+                            .iter()
+                            .zip(capture.scenarios())
+                            .map(|(&l, s)| (l, s.gain_db))
+                            .collect(),
+                        objects,
+                    };
                     let text = serde_json::to_string(&labels).expect("labels serialise");
                     self.write(&self.labels_path(seed, p), text.as_bytes())?;
                     progress.done(true);
@@ -596,6 +665,23 @@ impl Dataset {
             }
         }
         let report = SeedReport { frames: poses.len(), rendered: todo.len(), skipped: poses.len() - todo.len() };
+        log::info!(
+            "dataset: seed {seed}: {} frames ({} rendered, {} already there)",
+            report.frames,
+            report.rendered,
+            report.skipped
+        );
+        let trajectory = SequenceTrajectory {
+            seed,
+            axes: VIEW_AXES,
+            frames: frames
+                .iter()
+                .filter_map(|f| Some(TrajectoryFrame { pose: f.pose, time_s: f.time_s?, view: f.view? }))
+                .collect(),
+        };
+        let mut text = serde_json::to_string_pretty(&trajectory).expect("trajectory serialises");
+        text.push('\n');
+        self.write(&self.trajectory_path(seed), text.as_bytes())?;
         let text = serde_json::to_string(&Fragment { seed, frames }).expect("fragment serialises");
         self.write(&self.fragment_path(seed), text.as_bytes())?;
         Ok(report)
@@ -681,6 +767,9 @@ impl Dataset {
                     lighting,
                     depth_file: Self::depth_rel(f.seed, frame.pose),
                     mask_file: Self::mask_rel(f.seed, frame.pose),
+                    view: frame.view,
+                    exposure_s: frame.exposure_s,
+                    gain_db: frame.gain_db.get(&lighting).copied(),
                 });
                 for o in &frame.objects {
                     annotations.push(CocoAnnotationOut {

@@ -12,6 +12,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::evaluate::{EvalConfig, FitnessWeights};
 use scene_gen_camera::camera_spec::CameraSpec;
+use scene_gen_scene::house::HouseOptions;
 
 /// The default configuration, and the documentation of every key.
 pub const EMBEDDED_TOML: &str = include_str!("../../../../optimize.toml");
@@ -32,6 +33,9 @@ pub struct OptimizeConfig {
     pub genes: Genes,
     #[serde(default = "d_evaluation")]
     pub evaluation: Evaluation,
+    /// The houses candidates are evaluated in (`[house]`); left out of records when default.
+    #[serde(default, skip_serializing_if = "HouseOptions::is_default")]
+    pub house: HouseOptions,
 }
 
 /// The genetic algorithm's sizes and mutation (TaCOS: 10, 20, 5, 3, 0.8..1.2, +-3).
@@ -347,6 +351,9 @@ impl OptimizeConfig {
     /// The first offending field.
     pub fn validate(&self) -> Result<(), (String, String)> {
         let bad = |field: &str, why: String| Err((field.to_string(), why));
+        if let Err(e) = self.house.validate() {
+            return bad("house", e.to_string());
+        }
         let ga = &self.ga;
         if ga.population < 2 {
             return bad("ga.population", format!("must be at least 2, got {}", ga.population));
@@ -428,6 +435,7 @@ impl OptimizeConfig {
                 inliers: w.inliers,
                 inlier_ratio: w.inlier_ratio,
             },
+            house: self.house.clone(),
             ..EvalConfig::default()
         }
     }
@@ -443,6 +451,23 @@ impl OptimizeConfig {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `[house]` reaches the evaluator, is recorded only when it is not the default, and an
+    /// impossible house is refused naming the section.
+    #[test]
+    fn house_section_reaches_the_evaluator() {
+        let path = Path::new("house.toml");
+        assert!(OptimizeConfig::default().house.is_default());
+        let c = OptimizeConfig::from_toml("[house]\nenvelope = \"9x11x2.6\"\nmin_room_m = 4.5\n", path).unwrap();
+        assert_eq!(c.eval_config().house, c.house);
+        assert_eq!((c.house.envelope.width_m, c.house.envelope.depth_m, c.house.min_room_m), (9.0, 11.0, 4.5));
+        assert!(serde_json::to_string(&c).unwrap().contains("\"house\":{\"envelope\":\"9x11x2.6\""));
+        assert!(!serde_json::to_string(&OptimizeConfig::default()).unwrap().contains("house"));
+        let e = OptimizeConfig::from_toml("[house]\nmin_room_m = 1.0\n", path).unwrap_err().to_string();
+        assert!(e.contains("house") && e.contains("--min-room 1"), "{e}");
+        let e = OptimizeConfig::from_toml("[house]\nenvelope = \"9x11\"\n", path).unwrap_err().to_string();
+        assert!(e.contains("house.toml:2") && e.contains("WIDTHxDEPTHxHEIGHT"), "{e}");
+    }
 
     #[test]
     fn embedded_defaults_are_tacos() {

@@ -11,11 +11,14 @@ pub mod rooms;
 use std::path::{Path, PathBuf};
 
 use include_dir::{Dir, include_dir};
+use scene_gen_core::rng::fnv1a64;
+
+use crate::scene::LibraryId;
 
 pub use furniture::FurnitureClass;
 pub use rooms::RoomType;
 
-static EMBEDDED_ROOMS: Dir<'static> = include_dir!("$CARGO_MANIFEST_DIR/../../rooms");
+pub(crate) static EMBEDDED_ROOMS: Dir<'static> = include_dir!("$CARGO_MANIFEST_DIR/../../rooms");
 static EMBEDDED_FURNITURE: Dir<'static> = include_dir!("$CARGO_MANIFEST_DIR/../../furniture");
 
 /// An error in a library file, located as precisely as the parser could.
@@ -109,11 +112,40 @@ fn collect_folder(dir: &Path, out: &mut Vec<LibraryFile>) -> Result<(), LibraryE
     Ok(())
 }
 
+/// The identity of a library: the folder it came from and a digest of its files.
+fn library_id(source: LibrarySource<'_>, label: &str, files: &[LibraryFile]) -> LibraryId {
+    let root = match source {
+        LibrarySource::Embedded => Path::new(label),
+        LibrarySource::Folder(root) => root,
+    };
+    let mut bytes = Vec::new();
+    for file in files {
+        // Relative paths with '/' so the digest does not depend on where the folder is.
+        let relative = file.path.strip_prefix(root).unwrap_or(&file.path);
+        let name: Vec<String> = relative.components().map(|c| c.as_os_str().to_string_lossy().into_owned()).collect();
+        bytes.extend_from_slice(name.join("/").as_bytes());
+        bytes.push(0);
+        bytes.extend_from_slice(&(file.bytes.len() as u64).to_le_bytes());
+        bytes.extend_from_slice(&file.bytes);
+    }
+    LibraryId {
+        folder: match source {
+            LibrarySource::Embedded => None,
+            LibrarySource::Folder(root) => Some(root.display().to_string()),
+        },
+        digest: format!("fnv1a64:{:016x}", fnv1a64(&bytes)),
+    }
+}
+
 /// Room types and furniture classes, validated against each other.
 #[derive(Clone, Debug)]
 pub struct Library {
     pub rooms: Vec<RoomType>,
     pub furniture: Vec<FurnitureClass>,
+    /// Where the room types came from, recorded in every house's manifest.
+    pub rooms_id: LibraryId,
+    /// Where the furniture came from.
+    pub furniture_id: LibraryId,
 }
 
 impl Library {
@@ -126,10 +158,21 @@ impl Library {
     pub fn load(rooms: LibrarySource<'_>, furniture: LibrarySource<'_>) -> Result<Library, LibraryError> {
         let room_files = list_files(rooms, &EMBEDDED_ROOMS, "rooms")?;
         let furniture_files = list_files(furniture, &EMBEDDED_FURNITURE, "furniture")?;
+        let rooms_id = library_id(rooms, "rooms", &room_files);
+        let furniture_id = library_id(furniture, "furniture", &furniture_files);
         let rooms = rooms::parse_room_types(&room_files)?;
         let furniture = furniture::parse_furniture(&furniture_files)?;
         furniture::check_room_requests(&room_files, &rooms, &furniture)?;
-        Ok(Library { rooms, furniture })
+        log::debug!(
+            "libraries: {} room types from {} ({}), {} furniture classes from {} ({})",
+            rooms.len(),
+            rooms_id.folder.as_deref().unwrap_or("embedded"),
+            rooms_id.digest,
+            furniture.len(),
+            furniture_id.folder.as_deref().unwrap_or("embedded"),
+            furniture_id.digest
+        );
+        Ok(Library { rooms, furniture, rooms_id, furniture_id })
     }
 
     /// The furniture class entry for `class`, if the library has one.
