@@ -278,3 +278,60 @@ fn frames_carry_their_camera() {
         assert!(frames[0]["time_s"].as_f64().unwrap() < frames[1]["time_s"].as_f64().unwrap());
     }
 }
+
+/// The class PNG marks exactly the pixels the instance mask marks, with each annotated
+/// instance's category; the normals PNG holds unit normals facing the camera where there is
+/// depth and zeros where there is none.
+#[test]
+fn class_masks_and_normals_agree_with_the_frame() {
+    let dir = single();
+    let day = coco(dir, "day");
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.join("annotations/instances_day.json")).unwrap()).unwrap();
+    for (image, entry) in day.images.iter().zip(json["images"].as_array().unwrap()) {
+        let classes = image::open(dir.join(&image.class_file)).unwrap();
+        assert!(matches!(classes, image::DynamicImage::ImageLuma8(_)), "{}: 8-bit grey", image.class_file);
+        let classes = classes.into_luma8();
+        let masks = image::open(dir.join(&image.mask_file)).unwrap().into_luma16();
+        let depth = image::open(dir.join(&image.depth_file)).unwrap().into_luma16();
+        let normals = image::open(dir.join(&image.normal_file)).unwrap();
+        assert!(matches!(normals, image::DynamicImage::ImageRgb16(_)), "{}: 16-bit RGB", image.normal_file);
+        let normals = normals.into_rgb16();
+        for a in day.annotations.iter().filter(|a| a.image_id == image.id) {
+            let class = masks.pixels().zip(classes.pixels()).find(|(m, _)| u32::from(m.0[0]) == a.instance_id);
+            assert_eq!(class.map(|(_, c)| u32::from(c.0[0])), Some(a.category_id), "instance {}", a.instance_id);
+        }
+        let m: [[f64; 4]; 4] = serde_json::from_value(entry["camera_to_world"].clone()).unwrap();
+        let k: [[f64; 3]; 3] = serde_json::from_value(entry["K"].clone()).unwrap();
+        let (mut facing, mut hits) = (0, 0);
+        for (u, v, n) in normals.enumerate_pixels() {
+            let (instance, class) = (masks.get_pixel(u, v).0[0], classes.get_pixel(u, v).0[0]);
+            assert_eq!(
+                instance > 0,
+                class > 0,
+                "{}: pixel ({u}, {v}) instance {instance}, class {class}",
+                image.file_name
+            );
+            let decoded = n.0.map(|c| f64::from(c) / 65535.0 * 2.0 - 1.0);
+            if depth.get_pixel(u, v).0[0] == 0 {
+                assert_eq!(n.0, [0; 3], "{}: a normal where nothing is hit", image.file_name);
+                continue;
+            }
+            let length = decoded.iter().map(|c| c * c).sum::<f64>().sqrt();
+            assert!((length - 1.0).abs() < 1e-3, "{}: |n| = {length} at ({u}, {v})", image.file_name);
+            // The view ray of the pixel in the world; a normal facing the camera opposes it.
+            let cam = [(f64::from(u) - k[0][2]) / k[0][0], (f64::from(v) - k[1][2]) / k[1][1], 1.0];
+            let ray: Vec<f64> = (0..3).map(|r| (0..3).map(|c| m[r][c] * cam[c]).sum()).collect();
+            hits += 1;
+            if (0..3).map(|i| decoded[i] * ray[i]).sum::<f64>() < 0.0 {
+                facing += 1;
+            }
+        }
+        // Shading normals are interpolated, so at grazing angles a few may lean past the view ray.
+        assert!(
+            hits > 100 && facing * 100 >= hits * 99,
+            "{}: {facing} of {hits} normals face the camera",
+            image.file_name
+        );
+    }
+}

@@ -337,6 +337,10 @@ pub struct CocoImageOut {
     pub depth_file: String,
     /// Relative to `DIR`.
     pub mask_file: String,
+    /// 8-bit class ids, relative to `DIR`.
+    pub class_file: String,
+    /// 16-bit RGB world normals, relative to `DIR`.
+    pub normal_file: String,
     /// Intrinsics and camera-to-world pose (absent for labels written before frames had them).
     #[serde(flatten, default, skip_serializing_if = "Option::is_none")]
     pub view: Option<ViewGeometry>,
@@ -520,6 +524,14 @@ impl Dataset {
         format!("masks/{}/pose_{pose:06}.png", seed_dir(seed))
     }
 
+    fn classes_rel(seed: u64, pose: usize) -> String {
+        format!("classes/{}/pose_{pose:06}.png", seed_dir(seed))
+    }
+
+    fn normals_rel(seed: u64, pose: usize) -> String {
+        format!("normals/{}/pose_{pose:06}.png", seed_dir(seed))
+    }
+
     fn labels_path(&self, seed: u64, pose: usize) -> PathBuf {
         self.dir.join(format!("labels/{}/pose_{pose:06}.json", seed_dir(seed)))
     }
@@ -548,6 +560,8 @@ impl Dataset {
             self.spec.lighting.iter().map(|&l| self.dir.join("images").join(Self::image_rel(seed, pose, l))).collect();
         files.push(self.dir.join(Self::depth_rel(seed, pose)));
         files.push(self.dir.join(Self::mask_rel(seed, pose)));
+        files.push(self.dir.join(Self::classes_rel(seed, pose)));
+        files.push(self.dir.join(Self::normals_rel(seed, pose)));
         files.push(self.labels_path(seed, pose));
         files
     }
@@ -625,6 +639,8 @@ impl Dataset {
                     }
                     self.write(&self.dir.join(Self::depth_rel(seed, p)), &png::depth_png(&frame))?;
                     self.write(&self.dir.join(Self::mask_rel(seed, p)), &png::instances_png(&frame))?;
+                    self.write(&self.dir.join(Self::classes_rel(seed, p)), &png::classes_png(&frame))?;
+                    self.write(&self.dir.join(Self::normals_rel(seed, p)), &png::normals_png(&frame))?;
                     let labels = FrameLabels {
                         seed,
                         pose: p,
@@ -767,6 +783,8 @@ impl Dataset {
                     lighting,
                     depth_file: Self::depth_rel(f.seed, frame.pose),
                     mask_file: Self::mask_rel(f.seed, frame.pose),
+                    class_file: Self::classes_rel(f.seed, frame.pose),
+                    normal_file: Self::normals_rel(f.seed, frame.pose),
                     view: frame.view,
                     exposure_s: frame.exposure_s,
                     gain_db: frame.gain_db.get(&lighting).copied(),

@@ -51,6 +51,26 @@ pub fn depth_png(frame: &Frame) -> Vec<u8> {
     png_gray16(frame.width, frame.height, mm)
 }
 
+/// 8-bit COCO class ids (1..=10 objects, 11 threshold; 0 = none).
+#[must_use]
+pub fn classes_png(frame: &Frame) -> Vec<u8> {
+    let ids: Vec<u8> = frame.class_id.iter().map(|&c| u8::try_from(c).unwrap_or(u8::MAX)).collect();
+    let img = image::GrayImage::from_raw(frame.width, frame.height, ids).expect("sizes match");
+    encode(&image::DynamicImage::ImageLuma8(img))
+}
+
+/// 16-bit RGB world-space unit normals facing the camera: each component `n` is stored as
+/// `round((n + 1) / 2 * 65535)`; `(0, 0, 0)` where nothing is hit (no unit normal encodes so).
+#[must_use]
+pub fn normals_png(frame: &Frame) -> Vec<u8> {
+    let encode_component = |n: f32| ((f64::from(n).clamp(-1.0, 1.0) + 1.0) * 0.5 * 65535.0).round() as u16;
+    let values: Vec<u16> =
+        frame.normal.iter().flat_map(|n| if *n == [0.0; 3] { [0; 3] } else { n.map(encode_component) }).collect();
+    let img = image::ImageBuffer::<image::Rgb<u16>, Vec<u16>>::from_raw(frame.width, frame.height, values)
+        .expect("sizes match");
+    encode(&image::DynamicImage::ImageRgb16(img))
+}
+
 /// 16-bit instance ids (0 = none).
 #[must_use]
 pub fn instances_png(frame: &Frame) -> Vec<u8> {
