@@ -37,7 +37,7 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
-pub use scene_gen_camera::{camera_spec, capture, isp, optics, radiometry, sensor, view};
+pub use scene_gen_camera::{camera_spec, capture, isp, optics, path, radiometry, sensor, view};
 pub use scene_gen_core::{io, rng, seeds, simd, stats};
 pub use scene_gen_design::{dataset, evaluate, optimize, plot, serve};
 pub use scene_gen_export as export;

@@ -15,6 +15,7 @@ use scene_gen::library::LibraryFile;
 use scene_gen::library::furniture::parse_furniture;
 use scene_gen::library::rooms::parse_room_types;
 use scene_gen::optimize::config::OptimizeConfig;
+use scene_gen::path;
 use scene_gen::sensor::Catalog;
 use scene_gen::serve::{ServeDefaults, parse_request, respond};
 
@@ -322,6 +323,17 @@ proptest! {
     }
 
     #[test]
+    fn camera_paths_take_any_bytes(bytes in prop::collection::vec(any::<u8>(), 0..400), json in any::<bool>()) {
+        check_path(&text(&bytes), json)?;
+    }
+
+    #[test]
+    fn camera_paths_take_mutated_files((seed, edits) in mutated(PATHS.len())) {
+        let (file, json) = PATHS[seed];
+        check_path(&text(&apply(file.as_bytes(), &edits)), json)?;
+    }
+
+    #[test]
     fn serve_requests_take_any_text(line in "[ -~]{0,120}") {
         check_request(&line)?;
     }
@@ -333,6 +345,32 @@ proptest! {
     }
 }
 
+// ---- camera paths (render --poses) ----
+
+const PATHS: [(&str, bool); 3] = [
+    (
+        r#"{"poses": [{"position": [1.2, 3.4, 0.8], "yaw_deg": 90.0, "time_s": 0.0},
+          {"x": 1.5, "y": 3.4, "yaw_deg": 45, "pitch_deg": -10, "time_s": 0.25}]}"#,
+        true,
+    ),
+    (r#"[{"x": 2, "y": 2, "z": 1.1, "yaw_deg": 0}]"#, true),
+    ("# path\nx,y,z,yaw_deg,pitch_deg,time_s\n1.2,3.4,0.8,90,-10,0\n1.5,3.4,0.8,45,-10,0.25\n", false),
+];
+
+fn check_path(text: &str, json: bool) -> Result<(), TestCaseError> {
+    let name = if json { "fuzzed/poses.json" } else { "fuzzed/poses.csv" };
+    match path::parse(Path::new(name), text) {
+        Ok(poses) => {
+            prop_assert!(!poses.is_empty());
+            for p in poses {
+                prop_assert!(p.x_m.is_finite() && p.y_m.is_finite() && p.yaw_deg.is_finite() && p.time_s.is_finite());
+            }
+        }
+        Err(e) => prop_assert!(e.to_string().starts_with(name), "no file in: {}", e),
+    }
+    Ok(())
+}
+
 /// The seeds are valid: the mutations start from files the parsers accept.
 #[test]
 fn the_seed_files_parse() {
@@ -341,6 +379,9 @@ fn the_seed_files_parse() {
     }
     for class in CLASSES {
         parse_furniture(&furniture_class(class)).unwrap();
+    }
+    for (file, json) in PATHS {
+        path::parse(Path::new(if json { "p.json" } else { "p.csv" }), file).unwrap();
     }
     for spec in INLINE_SPECS {
         let spec = CameraSpec::from_inline(spec).unwrap();

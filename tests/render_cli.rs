@@ -195,3 +195,82 @@ fn affine_noise_gives_rgb8_and_frames_follow_the_walk() {
     assert!(step > 0.2 && step <= 0.3, "consecutive frames {step} m apart");
     let _ = std::fs::remove_dir_all(dir);
 }
+
+/// Every file of a render folder but `trajectory.json`, by name.
+fn frame_files(dir: &Path) -> Vec<(String, Vec<u8>)> {
+    let mut files: Vec<(String, Vec<u8>)> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.file_name().unwrap() != "trajectory.json")
+        .map(|p| (p.file_name().unwrap().to_string_lossy().into_owned(), std::fs::read(&p).unwrap()))
+        .collect();
+    files.sort();
+    files
+}
+
+/// `--poses` renders a given path: the walk's own poses given back give the walk's frames byte
+/// for byte (JSON and CSV alike), a pose's height and pitch override the camera's, the render's
+/// trajectory reads back, and bad files are refused with their line.
+#[test]
+fn given_poses_render_like_the_walk() {
+    let camera = "IMX174,focal_mm=4,pitch_deg=-10";
+    let walk = scratch("walk");
+    let out = render(camera, &walk, &["--frames", "2", "--lighting", "day"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let trajectory = json(&walk.join("trajectory.json"));
+    let first: Vec<serde_json::Value> = trajectory["poses"].as_array().unwrap()[..2].to_vec();
+    let dir = scratch("poses-files");
+    std::fs::create_dir_all(&dir).unwrap();
+    let json_path = dir.join("poses.json");
+    std::fs::write(&json_path, serde_json::json!({ "poses": first }).to_string()).unwrap();
+    let mut csv = String::from("x,y,yaw_deg,time_s\n");
+    for p in &first {
+        let n = |v: &serde_json::Value| v.as_f64().unwrap() as f32;
+        let q = &p["position"];
+        csv.push_str(&format!("{},{},{},{}\n", n(&q[0]), n(&q[1]), n(&p["yaw_deg"]), n(&p["time_s"])));
+    }
+    let csv_path = dir.join("poses.csv");
+    std::fs::write(&csv_path, csv).unwrap();
+    for path in [&json_path, &csv_path] {
+        let given = scratch(&format!("given-{}", path.extension().unwrap().to_string_lossy()));
+        let out = render(camera, &given, &["--poses", path.to_str().unwrap(), "--lighting", "day"]);
+        assert!(out.status.success(), "{}", stderr(&out));
+        assert_eq!(frame_files(&given), frame_files(&walk), "{}", path.display());
+        // The render's own trajectory of a given path reads back to the same frames.
+        let again = scratch("again");
+        let trajectory = given.join("trajectory.json");
+        let out = render(camera, &again, &["--poses", trajectory.to_str().unwrap(), "--lighting", "day"]);
+        assert!(out.status.success(), "{}", stderr(&out));
+        assert_eq!(frame_files(&again), frame_files(&walk));
+        let _ = std::fs::remove_dir_all(again);
+        let _ = std::fs::remove_dir_all(given);
+    }
+
+    // A pose's own height and pitch.
+    let p = &first[0];
+    let csv = format!("x,y,z,yaw_deg,pitch_deg\n{},{},1.5,{},-30\n", p["position"][0], p["position"][1], p["yaw_deg"]);
+    std::fs::write(&csv_path, csv).unwrap();
+    let high = scratch("high");
+    let out = render(camera, &high, &["--poses", csv_path.to_str().unwrap(), "--lighting", "day"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let sidecar = json(&high.join("frame_0000_day.json"));
+    assert_eq!(
+        (sidecar["pose"]["position"][2].as_f64(), sidecar["pose"]["pitch_deg"].as_f64()),
+        (Some(1.5), Some(-30.0))
+    );
+    assert_eq!(sidecar["camera_to_world"][2][3].as_f64(), Some(1.5));
+    assert_ne!(frame_files(&high), frame_files(&walk));
+
+    // Bad files: the file and line named, nothing written.
+    std::fs::write(&csv_path, "x,y,yaw_deg\n1,2,3\n1,2\n").unwrap();
+    let bad = scratch("bad-poses");
+    let out = render(camera, &bad, &["--poses", csv_path.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+    assert!(stderr(&out).contains("poses.csv: line 3: 2 values"), "{}", stderr(&out));
+    let out = render(camera, &bad, &["--poses", json_path.to_str().unwrap(), "--frames", "2"]);
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+    assert!(!bad.exists());
+    for d in [walk, dir, high] {
+        let _ = std::fs::remove_dir_all(d);
+    }
+}

@@ -9,7 +9,8 @@
 //! options builds the house directly instead, as `scene-gen --seed N` would.
 //!
 //! Frames are taken at the first `--frames` poses of the agent's walk
-//! ([`scene_gen::trajectory`]). Per frame `k` (`kkkk` zero-padded):
+//! ([`scene_gen::trajectory`]), or at every pose of a given path (`--poses FILE`, JSON or CSV,
+//! [`scene_gen::path`]). Per frame `k` (`kkkk` zero-padded):
 //!
 //! * `frame_kkkk_day.png` / `frame_kkkk_night.png`: the sensor image. EMVA and `noise = "off"`:
 //!   grey, raw DN at the ADC depth: 8-bit PNG for sensors of at most 8 bits, else 16-bit PNG
@@ -25,7 +26,8 @@
 //!   `instance_id`s of objects and thresholds).
 //!
 //! and once, `trajectory.json`: the whole walk (poses with position, yaw_deg, time_s; the door
-//! crossings with threshold_id, pose_index, time_s; the agent radius used).
+//! crossings with threshold_id, pose_index, time_s; the agent radius used), or for a given path
+//! its poses as `--poses` reads them back.
 //!
 //! Day and night come from one trace: the lights of each group are scaled so the mean
 //! illuminance on the 0.75 m plane is 20 lux by day and 2 lux by night (TaCOS).
@@ -35,6 +37,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, anyhow};
 use clap::{Args, ValueEnum};
+use glam::Vec3;
 use scene_gen::camera_spec::{CameraSpec, ResolvedCamera};
 use scene_gen::capture::{Capture, Scenario};
 use scene_gen::config::GeneratorConfig;
@@ -44,8 +47,10 @@ use scene_gen::generate::generate;
 use scene_gen::house::HouseOptions;
 use scene_gen::lights::TARGET_PLANE_M;
 use scene_gen::manifest::Manifest;
+use scene_gen::path::{self, GivenPose};
 use scene_gen::radiometry::SensorImage;
 use scene_gen::render::RenderSettings;
+use scene_gen::render::camera::Camera;
 use scene_gen::scene::{LibraryId, LightGroup, MANIFEST_SCHEMA, Scene};
 use scene_gen::sensor::Catalog;
 use scene_gen::trajectory::{self, Pose, TrajectoryParams};
@@ -93,8 +98,12 @@ pub struct RenderArgs {
     #[arg(long)]
     pub out: PathBuf,
     /// Frames, at the first poses of the walk (one every 0.25 m).
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = 1, conflicts_with = "poses")]
     pub frames: u32,
+    /// A camera path instead of the walk: a frame at every pose of a JSON or CSV file
+    /// (`scene_gen::path` documents both; `trajectory.json` of a render reads back).
+    #[arg(long)]
+    pub poses: Option<PathBuf>,
     /// Bin the sensor down to at most this width in pixels (keeps the field of view).
     #[arg(long)]
     pub max_width: Option<u32>,
@@ -121,6 +130,45 @@ struct PoseOut {
     yaw_deg: f32,
     pitch_deg: f32,
     time_s: f32,
+}
+
+impl PoseOut {
+    /// Where `camera` stands and looks at the time of `pose`. The heading is the camera's (the
+    /// walk's heading turned by the mount's yaw offset).
+    fn of(pose: &Pose, camera: &Camera) -> PoseOut {
+        PoseOut {
+            position: camera.position.to_array(),
+            yaw_deg: camera.yaw_deg,
+            pitch_deg: camera.pitch_deg,
+            time_s: pose.time_s,
+        }
+    }
+}
+
+/// `trajectory.json` of a render along a given path: it reads back with `--poses`.
+#[derive(Serialize)]
+struct GivenPath {
+    poses: Vec<PathPose>,
+}
+
+/// A pose as `--poses` reads it: the heading before the mount's yaw offset, the camera's pitch.
+#[derive(Serialize)]
+struct PathPose {
+    position: [f32; 3],
+    yaw_deg: f32,
+    pitch_deg: f32,
+    time_s: f32,
+}
+
+impl PathPose {
+    fn of(pose: &Pose, camera: &Camera) -> PathPose {
+        PathPose {
+            position: pose.position.to_array(),
+            yaw_deg: pose.yaw_deg,
+            pitch_deg: camera.pitch_deg,
+            time_s: pose.time_s,
+        }
+    }
 }
 
 #[derive(Serialize)]
@@ -260,6 +308,7 @@ pub fn run(args: &RenderArgs) -> Result<(), CliError> {
     }
     let catalog = Catalog::embedded();
     let resolved = spec.resolve(&catalog).map_err(bad_input)?;
+    let given = args.poses.as_deref().map(path::read).transpose().map_err(bad_input)?;
     let scene = match (&args.scene, args.seed) {
         (Some(path), _) => load_scene(path, &args.house)?,
         (None, Some(seed)) => build_scene(seed, &args.house)?,
@@ -267,7 +316,18 @@ pub fn run(args: &RenderArgs) -> Result<(), CliError> {
     };
 
     let params = TrajectoryParams { height_m: spec.height_m, ..TrajectoryParams::default() };
-    let walk = trajectory::plan(&scene, &params).map_err(failure)?;
+    let walk = match &given {
+        None => Some(trajectory::plan(&scene, &params).map_err(failure)?),
+        Some(_) => None,
+    };
+    let views: Vec<(Pose, Camera)> = match (&given, &walk) {
+        (Some(given), _) => given.iter().map(|g| given_view(&resolved, g)).collect(),
+        (None, Some(walk)) => (0..args.frames as usize)
+            .map(|k| walk.poses[k.min(walk.poses.len() - 1)])
+            .map(|pose| (pose, resolved.camera_at(&pose)))
+            .collect(),
+        (None, None) => unreachable!("a walk is planned when no poses are given"),
+    };
     let settings = match args.quality {
         Quality::Preview => RenderSettings::preview(),
         Quality::Standard => RenderSettings::standard(),
@@ -283,10 +343,9 @@ pub fn run(args: &RenderArgs) -> Result<(), CliError> {
         Capture::new(&scene, &resolved, &groups, settings, params.speed_m_per_s, noise_label).map_err(failure)?;
 
     let mut files: Vec<(String, Vec<u8>)> = Vec::new();
-    let progress = Progress::new("render", "frames", u64::from(args.frames));
-    for k in 0..args.frames {
-        let pose: Pose = walk.poses[(k as usize).min(walk.poses.len() - 1)];
-        let camera = capture.pinhole(&pose);
+    let progress = Progress::new("render", "frames", views.len() as u64);
+    for (k, (pose, camera)) in (0u32..).zip(&views) {
+        let (pose, camera) = (*pose, *camera);
         let frame = capture.renderer().render(&camera).map_err(bad_input)?;
         let stem = format!("frame_{k:04}");
         for scenario in capture.scenarios() {
@@ -294,7 +353,7 @@ pub fn run(args: &RenderArgs) -> Result<(), CliError> {
             let image = capture.sensor_image(&frame, &camera, &pose, scenario, u64::from(k));
             let (png, depth) = capture_png(&image);
             let (mean_dn, variance_dn2) = image.mean_variance();
-            let sidecar = sidecar(&resolved, &scene, k, scenario, &image, depth, &pose);
+            let sidecar = sidecar(&resolved, (scene.seed, k), scenario, &image, depth, &pose, &camera);
             let sidecar = Sidecar { mean_dn, variance_dn2, ..sidecar };
             let mut json = serde_json::to_string_pretty(&sidecar).map_err(failure)?;
             json.push('\n');
@@ -307,7 +366,13 @@ pub fn run(args: &RenderArgs) -> Result<(), CliError> {
     }
     progress.finish();
 
-    let mut walk_json = serde_json::to_string_pretty(&walk).map_err(failure)?;
+    let mut walk_json = match &walk {
+        Some(walk) => serde_json::to_string_pretty(walk),
+        None => {
+            serde_json::to_string_pretty(&GivenPath { poses: views.iter().map(|(p, c)| PathPose::of(p, c)).collect() })
+        }
+    }
+    .map_err(failure)?;
     walk_json.push('\n');
     files.push(("trajectory.json".to_string(), walk_json.into_bytes()));
 
@@ -328,20 +393,33 @@ pub fn run(args: &RenderArgs) -> Result<(), CliError> {
     Ok(())
 }
 
+/// The pose and camera of one pose of a given path: the camera's height and pitch unless the
+/// pose says otherwise, its heading turned by the mount's yaw offset as the walk's are.
+fn given_view(resolved: &ResolvedCamera, given: &GivenPose) -> (Pose, Camera) {
+    let z = given.z_m.unwrap_or(resolved.spec.height_m);
+    let pose = Pose { position: Vec3::new(given.x_m, given.y_m, z), yaw_deg: given.yaw_deg, time_s: given.time_s };
+    let mut camera = resolved.camera(pose.position, pose.yaw_deg);
+    if let Some(pitch) = given.pitch_deg {
+        camera.pitch_deg = pitch;
+    }
+    (pose, camera)
+}
+
+/// The sidecar of frame `k` of the house of `seed` (its image statistics left at zero).
 fn sidecar<'a>(
     resolved: &'a ResolvedCamera,
-    scene: &Scene,
-    k: u32,
+    (seed, k): (u64, u32),
     scenario: &Scenario,
     cap: &SensorImage,
     png_bit_depth: u8,
     pose: &Pose,
+    camera: &Camera,
 ) -> Sidecar<'a> {
     let light = &scenario.light;
     let spec = &resolved.spec;
     let f = resolved.focal_px();
     Sidecar {
-        scene_seed: scene.seed,
+        scene_seed: seed,
         frame: k,
         lighting: light.name(),
         sensor: &resolved.sensor.model,
@@ -361,13 +439,8 @@ fn sidecar<'a>(
             cx: f64::from(cap.width) * 0.5 - 0.5,
             cy: f64::from(cap.height) * 0.5 - 0.5,
         },
-        pose: PoseOut {
-            position: pose.position.truncate().extend(spec.height_m).to_array(),
-            yaw_deg: pose.yaw_deg + spec.yaw_offset_deg,
-            pitch_deg: spec.pitch_deg,
-            time_s: pose.time_s,
-        },
-        view: ViewGeometry::of(&resolved.camera_at(pose)),
+        pose: PoseOut::of(pose, camera),
+        view: ViewGeometry::of(camera),
         exposure_s: spec.exposure_s,
         gain_db: scenario.gain_db,
         noise: spec.noise,

@@ -18,11 +18,13 @@
 //! * [`capture`]: the one place that chains them: a house, a camera and lighting scenarios in,
 //!   frames out.
 //! * [`view`]: a frame's intrinsics and camera-to-world pose, in the conventions datasets carry.
+//! * [`path`]: a camera path the user gives (JSON or CSV poses) instead of the agent's walk.
 
 pub mod camera_spec;
 pub mod capture;
 pub mod isp;
 pub mod optics;
+pub mod path;
 pub mod radiometry;
 pub mod sensor;
 pub mod view;
