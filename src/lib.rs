@@ -39,7 +39,7 @@
 
 pub use scene_gen_camera::{camera_spec, capture, isp, optics, path, radiometry, sensor, view};
 pub use scene_gen_core::{io, rng, seeds, simd, stats};
-pub use scene_gen_design::{dataset, evaluate, optimize, plot, serve};
+pub use scene_gen_design::{dataset, evaluate, optimize, plot, progress, serve};
 pub use scene_gen_export as export;
 pub use scene_gen_measure::{calibration, gap, target};
 pub use scene_gen_perception::{detection, orb};

@@ -69,17 +69,6 @@ pub struct DatasetArgs {
     pub house: HouseArgs,
 }
 
-struct Frames(Progress);
-
-impl scene_gen::dataset::Progress for Frames {
-    fn planned(&self, frames: u64) {
-        self.0.add_total(frames);
-    }
-    fn done(&self, _rendered: bool) {
-        self.0.inc(1);
-    }
-}
-
 fn classify(e: DatasetError) -> CliError {
     match e {
         DatasetError::Spec(_) | DatasetError::Shard(_) | DatasetError::Invalid(_) | DatasetError::Mismatch { .. } => {
@@ -127,10 +116,10 @@ pub fn run(args: &DatasetArgs) -> Result<(), CliError> {
     }
 
     dataset.init().map_err(classify)?;
-    let progress = Frames(Progress::new("dataset", "frames", 0));
+    let progress = Progress::new("dataset", "frames", 0);
     let (w, h) = dataset.image_size();
     let report = dataset.run_shard(shard, &progress).map_err(classify)?;
-    progress.0.finish();
+    progress.finish();
     println!(
         "shard {shard}: {} frames of {w}x{h} ({} rendered, {} already there) in {}",
         report.frames,

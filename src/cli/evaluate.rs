@@ -4,9 +4,7 @@
 use anyhow::anyhow;
 use clap::Args;
 use scene_gen::camera_spec::CameraSpec;
-use scene_gen::evaluate::{
-    EvalConfig, EvalError, EvalProgress, Evaluation, ExternalDetector, ScenarioScore, evaluate_with_progress,
-};
+use scene_gen::evaluate::{EvalConfig, EvalError, Evaluation, ExternalDetector, ScenarioScore, evaluate_with_progress};
 use scene_gen::isp::OutputRule;
 use scene_gen::render::RenderSettings;
 use scene_gen::seeds::{SeedRange, SeedsError};
@@ -60,17 +58,6 @@ pub struct EvaluateArgs {
     pub json: bool,
     #[command(flatten)]
     pub house: HouseArgs,
-}
-
-struct Poses(Progress);
-
-impl EvalProgress for Poses {
-    fn planned(&self, poses: u64) {
-        self.0.add_total(poses);
-    }
-    fn done(&self) {
-        self.0.inc(1);
-    }
 }
 
 /// Most bounce rays per pixel `--bounce-rays` takes: beyond a few, `standard` and `high`
@@ -163,9 +150,9 @@ pub fn run(args: &EvaluateArgs) -> Result<(), CliError> {
         house,
         ..defaults
     };
-    let progress = Poses(Progress::new("evaluate", "poses", 0));
+    let progress = Progress::new("evaluate", "poses", 0);
     let evaluation = evaluate_with_progress(&spec, &seeds, &config, &progress);
-    progress.0.finish();
+    progress.finish();
     let mut evaluation = evaluation.map_err(|e| match e {
         EvalError::Spec(_) | EvalError::NoSeeds | EvalError::NoFrames | EvalError::BadSpeed(_) => bad_input(e),
         other => failure(other),

@@ -155,9 +155,20 @@ impl Progress {
     }
 }
 
+/// The library's runs (`dataset`'s frames, `evaluate`'s poses) report here.
+impl scene_gen::progress::Progress for Progress {
+    fn planned(&self, units: u64) {
+        self.add_total(units);
+    }
+    fn done(&self, _computed: bool) {
+        self.inc(1);
+    }
+}
+
 /// Runs `work`, a job without a count, reporting its elapsed time: a spinner on a terminal,
-/// otherwise a plain line every period (at least every half second) and one when it ends.
-pub fn activity<T: Send>(what: &'static str, work: impl FnOnce() -> T + Send) -> T {
+/// otherwise a plain line every period (at least every half second) and, when it succeeds, one
+/// at the end (a failure speaks for itself).
+pub fn activity<T: Send, E: Send>(what: &'static str, work: impl FnOnce() -> Result<T, E> + Send) -> Result<T, E> {
     if QUIET.load(Ordering::Relaxed) {
         return work();
     }
@@ -182,6 +193,8 @@ pub fn activity<T: Send>(what: &'static str, work: impl FnOnce() -> T + Send) ->
         let _ = done.send(());
         result
     });
-    eprintln!("{what}: done in {:.1} s", start.elapsed().as_secs_f64());
+    if result.is_ok() {
+        eprintln!("{what}: done in {:.1} s", start.elapsed().as_secs_f64());
+    }
     result
 }

@@ -74,6 +74,7 @@ use std::time::Instant;
 use rayon::prelude::*;
 use serde::Serialize;
 
+use crate::progress::Progress;
 use scene_gen_camera::camera_spec::{CameraSpec, ResolvedCamera, SpecError};
 use scene_gen_camera::capture::{Capture, CaptureError, scenario_name};
 use scene_gen_camera::isp::OutputRule;
@@ -392,16 +393,6 @@ pub fn evaluate(spec: &CameraSpec, seeds: &[u64], config: &EvalConfig) -> Result
     evaluate_traced(spec, seeds, config).map(|(e, _)| e)
 }
 
-/// What an evaluation reports while it runs: poses planned and poses rendered and scored.
-pub trait EvalProgress: Sync {
-    /// `poses` more poses are planned (one house's worth).
-    fn planned(&self, _poses: u64) {}
-    /// One pose is rendered and scored.
-    fn done(&self) {}
-}
-
-impl EvalProgress for () {}
-
 /// As [`evaluate`], reporting its progress to `progress`.
 ///
 /// # Errors
@@ -410,7 +401,7 @@ pub fn evaluate_with_progress(
     spec: &CameraSpec,
     seeds: &[u64],
     config: &EvalConfig,
-    progress: &dyn EvalProgress,
+    progress: &dyn Progress,
 ) -> Result<Evaluation, EvalError> {
     cached(spec, seeds, config, progress).map(|(e, _)| e)
 }
@@ -428,7 +419,7 @@ fn cached(
     spec: &CameraSpec,
     seeds: &[u64],
     config: &EvalConfig,
-    progress: &dyn EvalProgress,
+    progress: &dyn Progress,
 ) -> Result<(Evaluation, bool), EvalError> {
     let (spec, resolved) = prepare(spec, seeds, config)?;
     // Normalised key: the resolved spec (canonical sensor name, defaults filled in) as JSON,
@@ -849,7 +840,7 @@ impl Tally {
         spec: &CameraSpec,
         resolved: &ResolvedCamera,
         config: &EvalConfig,
-        progress: &dyn EvalProgress,
+        progress: &dyn Progress,
     ) -> Result<(), EvalError> {
         let setup = Instant::now();
         let params = TrajectoryParams {
@@ -878,7 +869,7 @@ impl Tally {
             .par_iter()
             .map(|&job| {
                 let result = render_pose(&house, config, job, &spare_frames);
-                progress.done();
+                progress.done(true);
                 result
             })
             .collect();
@@ -1041,7 +1032,7 @@ fn compute(
     resolved: &ResolvedCamera,
     seeds: &[u64],
     config: &EvalConfig,
-    progress: &dyn EvalProgress,
+    progress: &dyn Progress,
 ) -> Result<Evaluation, EvalError> {
     COMPUTED.fetch_add(1, Ordering::SeqCst);
     let wall = Instant::now();

@@ -13,4 +13,5 @@ pub mod dataset;
 pub mod evaluate;
 pub mod optimize;
 pub mod plot;
+pub mod progress;
 pub mod serve;

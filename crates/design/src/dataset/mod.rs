@@ -416,15 +416,9 @@ fn write_shared(path: &Path, bytes: &[u8]) -> Result<(), DatasetError> {
     Ok(scene_gen_core::io::write_atomic(path, bytes)?)
 }
 
-/// What a run reports as it goes (a progress bar, or nothing).
-pub trait Progress: Sync {
-    /// `frames` more frames are planned.
-    fn planned(&self, _frames: u64) {}
-    /// One frame is done (`rendered` false: its files were already there).
-    fn done(&self, _rendered: bool) {}
-}
-
-impl Progress for () {}
+/// What a dataset run reports as it goes: frames planned and done (`false`: its files were
+/// already there).
+pub use crate::progress::Progress;
 
 /// What [`Dataset::run_seed`] did.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
