@@ -136,9 +136,14 @@ impl PoseOut {
     /// Where `camera` stands and looks at the time of `pose`. The heading is the camera's (the
     /// walk's heading turned by the mount's yaw offset).
     fn of(pose: &Pose, camera: &Camera) -> PoseOut {
+        PoseOut { yaw_deg: camera.yaw_deg, ..PoseOut::as_given(pose, camera) }
+    }
+
+    /// The pose as `--poses` reads it: the heading before the mount's yaw offset.
+    fn as_given(pose: &Pose, camera: &Camera) -> PoseOut {
         PoseOut {
             position: camera.position.to_array(),
-            yaw_deg: camera.yaw_deg,
+            yaw_deg: pose.yaw_deg,
             pitch_deg: camera.pitch_deg,
             time_s: pose.time_s,
         }
@@ -148,27 +153,7 @@ impl PoseOut {
 /// `trajectory.json` of a render along a given path: it reads back with `--poses`.
 #[derive(Serialize)]
 struct GivenPath {
-    poses: Vec<PathPose>,
-}
-
-/// A pose as `--poses` reads it: the heading before the mount's yaw offset, the camera's pitch.
-#[derive(Serialize)]
-struct PathPose {
-    position: [f32; 3],
-    yaw_deg: f32,
-    pitch_deg: f32,
-    time_s: f32,
-}
-
-impl PathPose {
-    fn of(pose: &Pose, camera: &Camera) -> PathPose {
-        PathPose {
-            position: pose.position.to_array(),
-            yaw_deg: pose.yaw_deg,
-            pitch_deg: camera.pitch_deg,
-            time_s: pose.time_s,
-        }
-    }
+    poses: Vec<PoseOut>,
 }
 
 #[derive(Serialize)]
@@ -287,9 +272,9 @@ fn recorded_options(path: &Path, manifest: &Manifest, given: &HouseArgs) -> Resu
     })
 }
 
-/// The house `--seed` and the house options ask for.
+/// The house `--seed` and the house options ask for (the generator checks the options).
 fn build_scene(seed: u64, given: &HouseArgs) -> Result<Scene, CliError> {
-    let options = given.checked()?;
+    let options = given.over(HouseOptions::default());
     let library = options.library().map_err(|e| bad_input(anyhow!(e)))?;
     generate(&options.config(seed), &library).map_err(bad_input)
 }
@@ -316,17 +301,16 @@ pub fn run(args: &RenderArgs) -> Result<(), CliError> {
     };
 
     let params = TrajectoryParams { height_m: spec.height_m, ..TrajectoryParams::default() };
-    let walk = match &given {
-        None => Some(trajectory::plan(&scene, &params).map_err(failure)?),
-        Some(_) => None,
-    };
-    let views: Vec<(Pose, Camera)> = match (&given, &walk) {
-        (Some(given), _) => given.iter().map(|g| given_view(&resolved, g)).collect(),
-        (None, Some(walk)) => (0..args.frames as usize)
-            .map(|k| walk.poses[k.min(walk.poses.len() - 1)])
-            .map(|pose| (pose, resolved.camera_at(&pose)))
-            .collect(),
-        (None, None) => unreachable!("a walk is planned when no poses are given"),
+    // The walk is planned only when no path is given; its first `--frames` poses are the views.
+    let (views, walk): (Vec<(Pose, Camera)>, _) = match &given {
+        Some(given) => (given.iter().map(|g| given_view(&resolved, g)).collect(), None),
+        None => {
+            let walk = trajectory::plan(&scene, &params).map_err(failure)?;
+            let last = walk.poses.len() - 1;
+            let pose = |k: usize| walk.poses[k.min(last)];
+            let views = (0..args.frames as usize).map(|k| (pose(k), resolved.camera_at(&pose(k)))).collect();
+            (views, Some(walk))
+        }
     };
     let settings = match args.quality {
         Quality::Preview => RenderSettings::preview(),
@@ -368,9 +352,9 @@ pub fn run(args: &RenderArgs) -> Result<(), CliError> {
 
     let mut walk_json = match &walk {
         Some(walk) => serde_json::to_string_pretty(walk),
-        None => {
-            serde_json::to_string_pretty(&GivenPath { poses: views.iter().map(|(p, c)| PathPose::of(p, c)).collect() })
-        }
+        None => serde_json::to_string_pretty(&GivenPath {
+            poses: views.iter().map(|(p, c)| PoseOut::as_given(p, c)).collect(),
+        }),
     }
     .map_err(failure)?;
     walk_json.push('\n');

@@ -49,8 +49,7 @@ def points_opencv(depth_mm, k, c2w):
 def points_opengl(depth_mm, k, c2w):
     """The same points through the OpenGL convention: x right, y up, the camera looking down -z."""
     gl = np.asarray(c2w) @ np.diag([1.0, -1.0, -1.0, 1.0])
-    v, u = np.nonzero(depth_mm[::STRIDE, ::STRIDE])
-    v, u = v * STRIDE, u * STRIDE
+    v, u = sampled(depth_mm)
     z = depth_mm[v, u].astype(np.float64) / 1000.0
     cam = np.stack([(u - k[0][2]) / k[0][0] * z, -(v - k[1][2]) / k[1][1] * z, -z, np.ones_like(z)])
     return (gl @ cam)[:3].T
@@ -72,11 +71,10 @@ def main(argv):
     mesh = trimesh.load(glb, force="mesh")
     failures = []
     for image in images:
-        for key in ("K", "camera_to_world", "depth_file", "normal_file"):
-            if key not in image:
-                failures.append(f"{image['file_name']}: no `{key}` in its COCO entry")
-        if failures:
-            break
+        missing = [key for key in ("K", "camera_to_world", "depth_file", "normal_file") if key not in image]
+        if missing:
+            failures.append(f"{image['file_name']}: no {', '.join(missing)} in its COCO entry")
+            continue
         depth = cv2.imread(os.path.join(dataset, image["depth_file"]), cv2.IMREAD_UNCHANGED)
         if depth is None or depth.dtype != np.uint16:
             failures.append(f"{image['depth_file']}: not a 16-bit PNG")
