@@ -1,13 +1,11 @@
 //! `scene-gen --seed N`: generate a house and write it out.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
-use anyhow::{Context, anyhow};
 use clap::{Args, ValueEnum};
-use scene_gen::export::{self, write_atomic};
+use scene_gen::export;
 use scene_gen::generate::generate;
 use scene_gen::house::HouseOptions;
-use scene_gen::manifest::Manifest;
 
 use super::house::HouseArgs;
 use super::{CliError, bad_input, failure};
@@ -48,37 +46,23 @@ pub fn run(args: &GenerateArgs) -> Result<(), CliError> {
     let library = options.library().map_err(bad_input)?;
     let scene = generate(&options.config(args.seed), &library).map_err(bad_input)?;
 
-    // Encode everything before writing anything, so a failure leaves no partial output.
-    let mut files = match args.format {
-        Format::Glb => vec![("scene.glb".to_string(), export::gltf::to_glb(&scene))],
-        Format::Gltf => export::gltf::to_gltf(&scene),
-        Format::Obj => export::obj::to_obj(&scene),
-        Format::Usda => usd(&scene, export::usd::UsdFormat::Usda)?,
-        Format::Usdc => usd(&scene, export::usd::UsdFormat::Usdc)?,
-    };
-    files.push(("scene.json".into(), Manifest::of(&scene).to_json().into_bytes()));
-    files.push(("plan.png".into(), export::plan::to_png(&scene)));
-    write_all(&args.out, &files)
-}
-
-/// USD through usd-core; a missing usd-core is the user's to fix (exit 2, install command).
-fn usd(scene: &scene_gen::scene::Scene, format: export::usd::UsdFormat) -> Result<Vec<(String, Vec<u8>)>, CliError> {
-    use export::usd::UsdError;
-    export::usd::to_usd(scene, format, &export::usd::find_python()).map_err(|e| match e {
-        UsdError::UsdCoreMissing { .. } => bad_input(e),
+    // Everything is encoded before anything is written, so a failure leaves no partial output.
+    let files = export::scene_files(&scene, args.format.into(), &export::usd::find_python()).map_err(|e| match e {
+        // A missing usd-core is the user's to fix (exit 2, install command).
+        export::usd::UsdError::UsdCoreMissing { .. } => bad_input(e),
         _ => failure(e),
-    })
+    })?;
+    export::write_files(&args.out, &files).map_err(failure)
 }
 
-/// Writes every file under `out`, each atomically.
-fn write_all(out: &Path, files: &[(String, Vec<u8>)]) -> Result<(), CliError> {
-    for (name, bytes) in files {
-        let path = out.join(name);
-        let dir = path.parent().unwrap_or(out);
-        std::fs::create_dir_all(dir)
-            .with_context(|| format!("cannot create output folder {}", dir.display()))
-            .map_err(failure)?;
-        write_atomic(&path, bytes).map_err(|e| failure(anyhow!(e)))?;
+impl From<Format> for export::SceneFormat {
+    fn from(format: Format) -> export::SceneFormat {
+        match format {
+            Format::Glb => export::SceneFormat::Glb,
+            Format::Gltf => export::SceneFormat::Gltf,
+            Format::Obj => export::SceneFormat::Obj,
+            Format::Usda => export::SceneFormat::Usda,
+            Format::Usdc => export::SceneFormat::Usdc,
+        }
     }
-    Ok(())
 }

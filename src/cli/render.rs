@@ -37,7 +37,6 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, anyhow};
 use clap::{Args, ValueEnum};
-use glam::Vec3;
 use scene_gen::camera_spec::{CameraSpec, ResolvedCamera};
 use scene_gen::capture::{Capture, Scenario};
 use scene_gen::config::GeneratorConfig;
@@ -47,7 +46,7 @@ use scene_gen::generate::generate;
 use scene_gen::house::HouseOptions;
 use scene_gen::lights::TARGET_PLANE_M;
 use scene_gen::manifest::Manifest;
-use scene_gen::path::{self, GivenPose};
+use scene_gen::path;
 use scene_gen::radiometry::SensorImage;
 use scene_gen::render::RenderSettings;
 use scene_gen::render::camera::Camera;
@@ -303,13 +302,10 @@ pub fn run(args: &RenderArgs) -> Result<(), CliError> {
     let params = TrajectoryParams { height_m: spec.height_m, ..TrajectoryParams::default() };
     // The walk is planned only when no path is given; its first `--frames` poses are the views.
     let (views, walk): (Vec<(Pose, Camera)>, _) = match &given {
-        Some(given) => (given.iter().map(|g| given_view(&resolved, g)).collect(), None),
+        Some(given) => (given.iter().map(|g| path::given_view(&resolved, g)).collect(), None),
         None => {
             let walk = trajectory::plan(&scene, &params).map_err(failure)?;
-            let last = walk.poses.len() - 1;
-            let pose = |k: usize| walk.poses[k.min(last)];
-            let views = (0..args.frames as usize).map(|k| (pose(k), resolved.camera_at(&pose(k)))).collect();
-            (views, Some(walk))
+            (path::walk_views(&resolved, &walk, args.frames as usize), Some(walk))
         }
     };
     let settings = match args.quality {
@@ -375,18 +371,6 @@ pub fn run(args: &RenderArgs) -> Result<(), CliError> {
     }
     println!("wrote {} files to {}", files.len(), args.out.display());
     Ok(())
-}
-
-/// The pose and camera of one pose of a given path: the camera's height and pitch unless the
-/// pose says otherwise, its heading turned by the mount's yaw offset as the walk's are.
-fn given_view(resolved: &ResolvedCamera, given: &GivenPose) -> (Pose, Camera) {
-    let z = given.z_m.unwrap_or(resolved.spec.height_m);
-    let pose = Pose { position: Vec3::new(given.x_m, given.y_m, z), yaw_deg: given.yaw_deg, time_s: given.time_s };
-    let mut camera = resolved.camera(pose.position, pose.yaw_deg);
-    if let Some(pitch) = given.pitch_deg {
-        camera.pitch_deg = pitch;
-    }
-    (pose, camera)
 }
 
 /// The sidecar of frame `k` of the house of `seed` (its image statistics left at zero).

@@ -16,7 +16,12 @@
 
 use std::path::{Path, PathBuf};
 
+use glam::Vec3;
+use scene_gen_render::camera::Camera;
+use scene_gen_scene::trajectory::{Pose, Trajectory};
 use serde_json::Value;
+
+use crate::camera_spec::ResolvedCamera;
 
 /// Most poses a file may hold: a 0.25 m-step walk of 25 km.
 pub const MAX_POSES: usize = 100_000;
@@ -58,6 +63,28 @@ pub fn read(path: &Path) -> Result<Vec<GivenPose>, PathError> {
     parse(path, text)
 }
 
+/// The pose and pinhole camera of one pose of a given path: the camera's height and pitch
+/// unless the pose says otherwise, its heading turned by the mount's yaw offset as the walk's
+/// are.
+#[must_use]
+pub fn given_view(camera: &ResolvedCamera, given: &GivenPose) -> (Pose, Camera) {
+    let z = given.z_m.unwrap_or(camera.spec.height_m);
+    let pose = Pose { position: Vec3::new(given.x_m, given.y_m, z), yaw_deg: given.yaw_deg, time_s: given.time_s };
+    let mut pinhole = camera.camera(pose.position, pose.yaw_deg);
+    if let Some(pitch) = given.pitch_deg {
+        pinhole.pitch_deg = pitch;
+    }
+    (pose, pinhole)
+}
+
+/// The first `frames` poses of a walk and the camera at each (the last pose repeats when the
+/// walk is shorter).
+#[must_use]
+pub fn walk_views(camera: &ResolvedCamera, walk: &Trajectory, frames: usize) -> Vec<(Pose, Camera)> {
+    let Some(last) = walk.poses.len().checked_sub(1) else { return Vec::new() };
+    (0..frames).map(|k| walk.poses[k.min(last)]).map(|p| (p, camera.camera_at(&p))).collect()
+}
+
 /// Parses `text` as the file `path` (its extension picks the form).
 ///
 /// # Errors
@@ -74,8 +101,9 @@ pub fn parse(path: &Path, text: &str) -> Result<Vec<GivenPose>, PathError> {
     Ok(poses)
 }
 
-/// The time of pose `index` when the file gives none.
-fn default_time_s(index: usize) -> f32 {
+/// The time of pose `index` when a path gives none: a 1 m/s walk with 0.25 m steps.
+#[must_use]
+pub fn default_time_s(index: usize) -> f32 {
     index as f32 * 0.25
 }
 
