@@ -9,7 +9,7 @@ use scene_gen::camera_spec::CameraSpec;
 use scene_gen::optimize::config::OptimizeConfig;
 use scene_gen::optimize::genes::Genome;
 use scene_gen::optimize::run::{Method, RunError, RunOptions, generation_stats, load_state, run};
-use scene_gen::optimize::{ObjectiveError, Score};
+use scene_gen::optimize::{Objective, ObjectiveError, Score};
 
 const FILES: [&str; 5] = ["state.json", "candidates.csv", "generations.csv", "best_camera.toml", "curve.png"];
 
@@ -107,6 +107,65 @@ fn an_interrupted_run_resumes_to_identical_files_without_re_evaluating() {
     let (_, again) = run_analytic(&parts, Method::Ga, &config, None);
     assert_eq!(again, 0);
     assert_eq!(read_all(&full), read_all(&parts));
+}
+
+/// Scores whole generations at once, as a distributed objective does, recording batch sizes.
+struct Batches {
+    sizes: Vec<usize>,
+    fail_at_batch: Option<usize>,
+}
+
+impl Objective for Batches {
+    fn score(&mut self, _: &Genome, _: &CameraSpec) -> Result<Score, ObjectiveError> {
+        Err(ObjectiveError::Other("the run must score by batch".into()))
+    }
+
+    fn score_batch(&mut self, batch: &[(Genome, CameraSpec)]) -> Result<Vec<Score>, ObjectiveError> {
+        if self.fail_at_batch == Some(self.sizes.len()) {
+            return Err(ObjectiveError::Other("worker lost".into()));
+        }
+        self.sizes.push(batch.len());
+        // In reverse and back, as results gathered out of order and put back in place.
+        let mut scored: Vec<(usize, Score)> =
+            batch.iter().enumerate().rev().map(|(i, (g, s))| (i, analytic(g, s))).collect();
+        scored.sort_by_key(|(i, _)| *i);
+        Ok(scored.into_iter().map(|(_, s)| s).collect())
+    }
+}
+
+#[test]
+fn generations_scored_as_batches_give_the_same_files_and_resume() {
+    let config = small_config(6, 4);
+    let one_by_one = fresh_dir("batch-reference");
+    run_analytic(&one_by_one, Method::Ga, &config, None);
+
+    let batched = fresh_dir("batched");
+    let mut objective = Batches { sizes: Vec::new(), fail_at_batch: None };
+    let summary = run(&batched, Method::Ga, &config, &mut objective, RunOptions::default()).unwrap();
+    assert!(summary.complete);
+    // Generation 0 is scored whole; later ones all but their elites, which keep their scores.
+    assert_eq!(objective.sizes[0], 6);
+    assert!(objective.sizes[1..].iter().all(|&n| n == 6 - config.ga.elites), "{:?}", objective.sizes);
+    assert_eq!(objective.sizes.iter().sum::<usize>(), config.budget());
+    assert_eq!(read_all(&one_by_one), read_all(&batched));
+
+    // A batch that fails records nothing of it; the run resumes from the generations before.
+    let failed = fresh_dir("batch-failed");
+    let mut objective = Batches { sizes: Vec::new(), fail_at_batch: Some(2) };
+    let err = run(&failed, Method::Ga, &config, &mut objective, RunOptions::default()).unwrap_err();
+    assert!(err.to_string().contains("worker lost"), "{err}");
+    assert_eq!(load_state(&failed).unwrap().unwrap().candidates.len(), 12);
+    let mut objective = Batches { sizes: Vec::new(), fail_at_batch: None };
+    run(&failed, Method::Ga, &config, &mut objective, RunOptions::default()).unwrap();
+    assert_eq!(objective.sizes.len(), 2);
+    assert_eq!(read_all(&one_by_one), read_all(&failed));
+
+    // `stop_after` cuts a batch short.
+    let stopped = fresh_dir("batch-stopped");
+    let mut objective = Batches { sizes: Vec::new(), fail_at_batch: None };
+    let summary =
+        run(&stopped, Method::Ga, &config, &mut objective, RunOptions { stop_after: Some(4), progress: None }).unwrap();
+    assert!(!summary.complete && objective.sizes == [4]);
 }
 
 #[test]

@@ -12,6 +12,9 @@ GIL, and ``progress=`` takes a callable told ``(done, planned)`` as units of wor
     >>> f.image.shape, f.depth.dtype, f.K, f.camera_to_world  # arrays, intrinsics, OpenCV pose
     >>> sg.evaluate("IMX172,focal_mm=4", seeds=range(2))["fitness"]
     >>> sg.write_dataset("data/", "IMX172,focal_mm=4", seeds="0..4", frames=5, max_width=320)
+    >>> sg.optimize("runs/ga", config="optimize.toml")      # = scene-gen optimize
+
+``scene_gen.ray`` runs dataset seeds and optimizer generations as Ray tasks.
 
 Conventions: world coordinates in metres, Z up (as the manifest). ``camera_to_world`` maps
 OpenCV camera axes (x right, y down, z forward) to the world; ``Frame.camera_to_world_opengl``
@@ -23,7 +26,7 @@ from __future__ import annotations
 
 from ._native import __version__
 from .camera import Camera, camera, sensors
-from .design import Dataset, evaluate, write_dataset
+from .design import Dataset, evaluate, optimize, write_dataset
 from .frames import Frame, render
 from .house import CATEGORIES, Door, Room, Scene, SceneObject, Threshold, generate
 
@@ -41,6 +44,7 @@ __all__ = [
     "camera",
     "evaluate",
     "generate",
+    "optimize",
     "render",
     "sensors",
     "write_dataset",

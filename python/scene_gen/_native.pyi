@@ -2,7 +2,7 @@
 
 from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, final
 
-__all__ = ["__version__", "Camera", "Dataset", "Scene", "catalog_json", "categories_json", "evaluate", "generate", "render"]
+__all__ = ["__version__", "Camera", "Dataset", "Scene", "catalog_json", "categories_json", "evaluate", "generate", "optimize", "optimize_config", "render", "score_candidates"]
 
 __version__: str
 
@@ -89,6 +89,22 @@ def evaluate(
     rooms: Optional[str] = None,
     furniture: Optional[str] = None,
     progress: _Progress = None,
+) -> str: ...
+def optimize_config(
+    config: Optional[str] = None,
+    envelope: Optional[str] = None,
+    min_room: Optional[float] = None,
+    rooms: Optional[str] = None,
+    furniture: Optional[str] = None,
+) -> str: ...
+def score_candidates(config_json: str, specs_json: Sequence[str]) -> List[Tuple[float, float, float]]: ...
+def optimize(
+    out: str,
+    config_json: str,
+    method: str = "ga",
+    score_batch: Optional[Callable[[List[str]], Sequence[Tuple[float, float, float]]]] = None,
+    progress: _Progress = None,
+    stop_after: Optional[int] = None,
 ) -> str: ...
 def catalog_json() -> str: ...
 def categories_json() -> str: ...

@@ -5,7 +5,7 @@ from __future__ import annotations
 import json
 import os
 from pathlib import Path
-from typing import Any, Dict, Iterable, List, Optional, Tuple, Union
+from typing import Any, Callable, Dict, Iterable, List, Optional, Sequence, Tuple, Union
 
 from . import _native
 from .camera import CameraLike, camera as _camera
@@ -192,4 +192,81 @@ def write_dataset(
     return dataset
 
 
-__all__ = ["Dataset", "Seeds", "evaluate", "write_dataset"]
+ScoreBatch = Callable[[str, List[Dict[str, Any]]], Sequence[Tuple[float, float, float]]]
+"""Scores a generation's candidates: called as ``score_batch(config_json, cameras)`` with the
+run's configuration (JSON text) and the candidates' camera specs (dicts), it returns
+``(day, night, fitness)`` per candidate, in order, as :func:`score_candidates` gives them."""
+
+
+def optimize_config(
+    config: Optional[PathLike] = None,
+    envelope: Optional[Envelope] = None,
+    min_room: Optional[float] = None,
+    rooms: Optional[PathLike] = None,
+    furniture: Optional[PathLike] = None,
+) -> str:
+    """The configuration of an optimizer run as JSON: the TOML file ``config`` (default: the
+    embedded ``optimize.toml``) with the house options given over its ``[house]``."""
+    path = None if config is None else os.fspath(config)
+    return _native.optimize_config(path, **house_kwargs(envelope, min_room, rooms, furniture))
+
+
+def score_candidates(config_json: str, cameras: List[Dict[str, Any]]) -> List[Tuple[float, float, float]]:
+    """``(day, night, fitness)`` of each camera spec under the run configuration
+    ``config_json``, exactly as ``scene-gen optimize`` scores a candidate (what a worker of a
+    distributed run calls)."""
+    return _native.score_candidates(config_json, [json.dumps(c) for c in cameras])
+
+
+def _native_batch(
+    score_batch: ScoreBatch, config_json: str
+) -> Callable[[List[str]], List[Tuple[float, float, float]]]:
+    """``score_batch`` as the native optimizer calls it (candidates as JSON text)."""
+
+    def batch(specs: List[str]) -> List[Tuple[float, float, float]]:
+        scores = score_batch(config_json, [json.loads(c) for c in specs])
+        return [(float(day), float(night), float(fitness)) for day, night, fitness in scores]
+
+    return batch
+
+
+def optimize(
+    out: PathLike,
+    config: Optional[PathLike] = None,
+    method: str = "ga",
+    envelope: Optional[Envelope] = None,
+    min_room: Optional[float] = None,
+    rooms: Optional[PathLike] = None,
+    furniture: Optional[PathLike] = None,
+    progress: Optional[Progress] = None,
+    score_batch: Optional[ScoreBatch] = None,
+    stop_after: Optional[int] = None,
+) -> Dict[str, Any]:
+    """Runs (or resumes) the camera-design optimizer in the folder ``out``, as
+    ``scene-gen optimize --config CONFIG --method METHOD`` does, writing the same files
+    (``state.json``, ``candidates.csv``, ``generations.csv``, ``best_camera.toml``,
+    ``curve.png``). ``method`` is ``ga`` (the genetic algorithm) or ``random`` (the baseline at
+    equal budget). ``score_batch`` scores each generation's candidates elsewhere (see
+    :data:`ScoreBatch`; ``scene_gen.ray.optimize`` uses a Ray cluster); by default this
+    process scores them. ``stop_after`` stops after that many evaluations (run again to
+    resume). ``progress(evaluations, budget)`` is told after every candidate. Returns the
+    summary: ``complete``, ``evaluations``, ``evaluated_now``, ``best`` (scores) and
+    ``best_camera`` (its spec)."""
+    config_json = optimize_config(config, envelope, min_room, rooms, furniture)
+    batch = None if score_batch is None else _native_batch(score_batch, config_json)
+    summary: Dict[str, Any] = json.loads(
+        _native.optimize(os.fspath(out), config_json, method, score_batch=batch, progress=progress, stop_after=stop_after)
+    )
+    return summary
+
+
+__all__ = [
+    "Dataset",
+    "ScoreBatch",
+    "Seeds",
+    "evaluate",
+    "optimize",
+    "optimize_config",
+    "score_candidates",
+    "write_dataset",
+]

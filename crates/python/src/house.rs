@@ -13,22 +13,37 @@ use scene_gen::trajectory::{self, TrajectoryParams};
 
 use crate::{bad_input, failure, write_error};
 
-/// The house options of a call (`None`: the default), checked: the envelope and room size
-/// fit and the libraries load.
+/// The house options of a call over `base` (`None`: the base's value), checked: the envelope
+/// and room size fit.
+pub fn options_over(
+    base: HouseOptions,
+    envelope: Option<&str>,
+    min_room: Option<f32>,
+    rooms: Option<PathBuf>,
+    furniture: Option<PathBuf>,
+) -> PyResult<HouseOptions> {
+    let envelope = match envelope {
+        Some(text) => text.parse::<Envelope>().map_err(|e| bad_input(format!("envelope: {e}")))?,
+        None => base.envelope,
+    };
+    let options = HouseOptions {
+        envelope,
+        min_room_m: min_room.unwrap_or(base.min_room_m),
+        rooms: rooms.or(base.rooms),
+        furniture: furniture.or(base.furniture),
+    };
+    options.validate().map_err(bad_input)?;
+    Ok(options)
+}
+
+/// [`options_over`] the defaults.
 pub fn options(
     envelope: Option<&str>,
     min_room: Option<f32>,
     rooms: Option<PathBuf>,
     furniture: Option<PathBuf>,
 ) -> PyResult<HouseOptions> {
-    let defaults = HouseOptions::default();
-    let envelope = match envelope {
-        Some(text) => text.parse::<Envelope>().map_err(|e| bad_input(format!("envelope: {e}")))?,
-        None => defaults.envelope,
-    };
-    let options = HouseOptions { envelope, min_room_m: min_room.unwrap_or(defaults.min_room_m), rooms, furniture };
-    options.validate().map_err(bad_input)?;
-    Ok(options)
+    options_over(HouseOptions::default(), envelope, min_room, rooms, furniture)
 }
 
 /// A generated house.

@@ -17,6 +17,7 @@ mod dataset;
 mod evaluate;
 mod frames;
 mod house;
+mod optimize;
 mod progress;
 
 use pyo3::exceptions::{PyOSError, PyRuntimeError, PyValueError};
@@ -61,6 +62,9 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(house::generate, m)?)?;
     m.add_function(wrap_pyfunction!(frames::render, m)?)?;
     m.add_function(wrap_pyfunction!(evaluate::evaluate, m)?)?;
+    m.add_function(wrap_pyfunction!(optimize::optimize_config, m)?)?;
+    m.add_function(wrap_pyfunction!(optimize::optimize, m)?)?;
+    m.add_function(wrap_pyfunction!(optimize::score_candidates, m)?)?;
     m.add_function(wrap_pyfunction!(catalog_json, m)?)?;
     m.add_function(wrap_pyfunction!(categories_json, m)?)?;
     Ok(())

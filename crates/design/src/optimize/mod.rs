@@ -41,6 +41,18 @@ pub trait Objective {
     /// # Errors
     /// Any failure of the scoring; the run stops (and can be resumed).
     fn score(&mut self, genome: &Genome, spec: &CameraSpec) -> Result<Score, ObjectiveError>;
+
+    /// Scores the candidates of one generation that need scoring, in order. The run hands a
+    /// generation over at once so that an objective can score its candidates side by side, on
+    /// other processes or machines (the Python package's Ray driver does); the default scores
+    /// them one after another. The scores must be what [`Objective::score`] would give, so a
+    /// run's files do not depend on how its candidates were scored.
+    ///
+    /// # Errors
+    /// Any failure of the scoring; nothing of the batch is recorded.
+    fn score_batch(&mut self, batch: &[(Genome, CameraSpec)]) -> Result<Vec<Score>, ObjectiveError> {
+        batch.iter().map(|(genome, spec)| self.score(genome, spec)).collect()
+    }
 }
 
 impl<F> Objective for F
@@ -85,8 +97,12 @@ impl EvalObjective {
     }
 }
 
-impl Objective for EvalObjective {
-    fn score(&mut self, _genome: &Genome, spec: &CameraSpec) -> Result<Score, ObjectiveError> {
+impl EvalObjective {
+    /// The score of the candidate `spec` (its genome does not matter to the evaluator).
+    ///
+    /// # Errors
+    /// [`ObjectiveError::Eval`] naming the camera.
+    pub fn score_spec(&self, spec: &CameraSpec) -> Result<Score, ObjectiveError> {
         let e = evaluate(spec, &self.seeds, &self.config)
             .map_err(|source| ObjectiveError::Eval { camera: spec.sensor.clone(), source })?;
         let fitness = match self.fitness {
@@ -95,5 +111,11 @@ impl Objective for EvalObjective {
             FitnessChoice::Night => e.fitness.night,
         };
         Ok(Score { day: e.fitness.day, night: e.fitness.night, fitness })
+    }
+}
+
+impl Objective for EvalObjective {
+    fn score(&mut self, _genome: &Genome, spec: &CameraSpec) -> Result<Score, ObjectiveError> {
+        self.score_spec(spec)
     }
 }

@@ -26,6 +26,7 @@ use super::ga::{Origin, next_generation};
 use super::genes::{Genome, Space};
 use super::{Objective, ObjectiveError, Score, random};
 use crate::plot::{Series, line_chart, to_png};
+use scene_gen_camera::camera_spec::CameraSpec;
 use scene_gen_camera::sensor::Catalog;
 use scene_gen_core::io::{WriteError, write_atomic};
 use scene_gen_core::rng::substream;
@@ -139,7 +140,7 @@ pub struct RunSummary {
     pub evaluations: usize,
     /// The best candidate so far.
     pub best: Option<Candidate>,
-    pub best_camera: Option<scene_gen_camera::camera_spec::CameraSpec>,
+    pub best_camera: Option<CameraSpec>,
 }
 
 /// The part of the configuration a run directory must agree on: everything but
@@ -253,23 +254,45 @@ pub fn run(
     for g in 0..config.ga.generations {
         let prev: Vec<Candidate> = state.candidates.iter().filter(|c| c.generation + 1 == g).cloned().collect();
         let proposals = propose(&space, method, config, g, &prev);
-        for (index, (genome, origin)) in proposals.into_iter().enumerate() {
-            if let Some(done) = state.candidates.iter().find(|c| c.generation == g && c.index == index) {
-                if done.genome != genome || done.origin != origin {
+        let mut recorded = vec![false; proposals.len()];
+        for done in state.candidates.iter().filter(|c| c.generation == g) {
+            match proposals.get(done.index) {
+                Some((genome, origin)) if done.genome == *genome && done.origin == *origin => {
+                    recorded[done.index] = true;
+                }
+                _ => {
                     return Err(RunError::BadState {
                         path: dir.join("state.json"),
-                        why: format!("candidate {g}/{index} differs from what this configuration proposes"),
+                        why: format!("candidate {g}/{} differs from what this configuration proposes", done.index),
                     });
                 }
+            }
+        }
+        // The generation's candidates still to score, up to what `stop_after` allows, in one batch.
+        let allowance = options.stop_after.map_or(usize::MAX, |n| n.saturating_sub(evaluated_now));
+        let to_score: Vec<usize> =
+            (0..proposals.len()).filter(|&i| proposals[i].1.evaluated() && !recorded[i]).take(allowance).collect();
+        let batch: Vec<(Genome, CameraSpec)> =
+            to_score.iter().map(|&i| (proposals[i].0.clone(), space.decode(&proposals[i].0))).collect();
+        let scores = if batch.is_empty() { Vec::new() } else { objective.score_batch(&batch)? };
+        if scores.len() != batch.len() {
+            return Err(RunError::Objective(ObjectiveError::Other(format!(
+                "the objective scored {} of the {} candidates of generation {g}",
+                scores.len(),
+                batch.len()
+            ))));
+        }
+        for (index, (genome, origin)) in proposals.into_iter().enumerate() {
+            if recorded[index] {
                 continue;
             }
-            if options.stop_after.is_some_and(|n| evaluated_now >= n) && origin.evaluated() {
-                write_outputs(dir, &space, &state)?;
-                return Ok(summary(&space, &state, false, evaluated_now));
-            }
             let score = if origin.evaluated() {
-                let spec = space.decode(&genome);
-                let score = objective.score(&genome, &spec)?;
+                let Some(k) = to_score.iter().position(|&i| i == index) else {
+                    // Past what `stop_after` allows: stop as an interruption would.
+                    write_outputs(dir, &space, &state)?;
+                    return Ok(summary(&space, &state, false, evaluated_now));
+                };
+                let score = scores[k];
                 if !score.fitness.is_finite() || !score.day.is_finite() || !score.night.is_finite() {
                     return Err(RunError::NonFinite { generation: g, index, fitness: score.fitness });
                 }
