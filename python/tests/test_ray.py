@@ -1,7 +1,11 @@
-"""Scale-out on Ray: a local two-worker cluster makes the bytes of a single process."""
+"""Scale-out on Ray: a local two-worker cluster (loopback only) makes the bytes of a single process."""
+
+import os
 
 import pytest
 
+# Ray reads this when imported: a Linux node then binds its services to 127.0.0.1 only.
+os.environ.setdefault("RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER", "0")
 ray = pytest.importorskip("ray")
 
 import scene_gen as sg  # noqa: E402
@@ -16,6 +20,7 @@ DATASET = dict(seeds="0..3", frames=2, max_width=64, quality="preview", lighting
 @pytest.fixture(scope="module", autouse=True)
 def cluster():
     ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False)
+    assert [node["NodeManagerAddress"] for node in ray.nodes()] == ["127.0.0.1"], "not on loopback"
     yield
     ray.shutdown()
 
