@@ -24,7 +24,7 @@
 //!   [`scene`], [`manifest`], [`trajectory`], [`house`].
 //! * scene-gen-export: [`export`]. scene-gen-trace: [`trace`]. scene-gen-render: [`render`].
 //! * scene-gen-camera: [`camera_spec`], [`sensor`], [`optics`], [`radiometry`], [`isp`],
-//!   [`capture`].
+//!   [`demosaic`], [`develop`], [`capture`].
 //! * scene-gen-perception: [`orb`], [`detection`].
 //! * scene-gen-measure: [`calibration`], [`gap`], [`target`].
 //! * scene-gen-design: [`evaluate`], [`optimize`], [`serve`], [`dataset`], [`plot`].
@@ -37,7 +37,7 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
-pub use scene_gen_camera::{camera_spec, capture, isp, optics, path, radiometry, sensor, view};
+pub use scene_gen_camera::{camera_spec, capture, demosaic, develop, isp, optics, path, radiometry, sensor, view};
 pub use scene_gen_core::{io, rng, seeds, simd, stats};
 pub use scene_gen_design::{dataset, evaluate, optimize, plot, progress, serve};
 pub use scene_gen_export as export;

@@ -6,6 +6,7 @@ mod evaluate;
 mod gap;
 mod generate;
 mod house;
+mod isp;
 mod optimize;
 mod orb;
 mod progress;
@@ -69,6 +70,8 @@ pub enum Command {
     Orb(orb::OrbArgs),
     /// Cross-checked ORB matches between two images and their RANSAC fundamental-matrix inliers.
     Match(orb::MatchArgs),
+    /// Develop a raw Bayer mosaic (8- or 16-bit PNG) into an 8-bit sRGB PNG.
+    Isp(isp::IspArgs),
     /// Sensor images, depth and instance masks of a camera walking through a generated house.
     Render(render::RenderArgs),
     /// Perception scores (thresholds, AP@0.5, ORB) and fitness of a camera candidate.
@@ -113,6 +116,7 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Some(Command::Gap(args)) => gap::run(&args),
         Some(Command::Orb(args)) => orb::run_orb(&args),
         Some(Command::Match(args)) => orb::run_match(&args),
+        Some(Command::Isp(args)) => isp::run(&args),
         Some(Command::Render(args)) => render::run(&args),
         Some(Command::Evaluate(args)) => evaluate::run(&args),
         Some(Command::Serve(args)) => serve::run(&args),

@@ -15,6 +15,9 @@
 //!   calibration and the gap workflow.
 //! * [`isp`]: the fixed 8-bit output rule per scenario, and the fused sensor + ISP row the
 //!   evaluator runs.
+//! * [`demosaic`]: Bayer mosaics to RGB (bilinear, Malvar-He-Cutler, Hamilton-Adams
+//!   directional), and [`develop`]: a raw mosaic to 8-bit sRGB (black level, white balance,
+//!   demosaic, colour matrix, sRGB curve), as `scene-gen isp` runs it.
 //! * [`capture`]: the one place that chains them: a house, a camera and lighting scenarios in,
 //!   frames out.
 //! * [`view`]: a frame's intrinsics and camera-to-world pose, in the conventions datasets carry.
@@ -22,6 +25,8 @@
 
 pub mod camera_spec;
 pub mod capture;
+pub mod demosaic;
+pub mod develop;
 pub mod isp;
 pub mod optics;
 pub mod path;
