@@ -6,10 +6,14 @@
 //! subtracted with the dark pair at the same exposure. From those:
 //!
 //! * system gain K: slope of `sigma_y^2 - sigma_y.dark^2` against `mu_y - mu_y.dark`, fitted
-//!   (least squares with offset) over the points up to 70 % of saturation;
+//!   through the origin (least squares) over the points up to 70 % of saturation;
 //! * temporal dark noise `sigma_d = sqrt(sigma_y.dark^2 - 1/12) / K` electrons (the 1/12 DN^2
-//!   is the quantization noise);
-//! * responsivity R: slope of `mu_y - mu_y.dark` against photons over the same range, and
+//!   is the quantization noise), `sigma_y.dark^2` the dark variance at zero exposure (the
+//!   intercept of its fit against exposure when the darks span three or more exposures, else
+//!   at the shortest), at least 0.24 DN^2 (below it the noise is quantization-limited and
+//!   0.49 DN is an upper limit), as the EMVA 1288 reference implementation computes it;
+//! * responsivity R: slope of `mu_y - mu_y.dark` against photons over the same range (through
+//!   the origin), and
 //!   quantum efficiency `R / K`;
 //! * saturation: the step where the temporal variance peaks;
 //! * linearity error: `(max delta - min delta) / 2` of the relative deviations `delta` from the
@@ -37,6 +41,10 @@ const FIT_MAX_FRACTION: f64 = 0.7;
 const LINEARITY_RANGE: (f64, f64) = (0.05, 0.95);
 /// Quantization noise variance of an ideal ADC, DN^2.
 const QUANTIZATION_VAR_DN2: f64 = 1.0 / 12.0;
+/// Below this dark variance the temporal dark noise is quantization-limited and cannot be
+/// measured; EMVA 1288 (and its reference implementation) then report the noise at this
+/// floor, an upper limit (0.24 DN^2: 0.49 DN).
+const QUANTIZATION_LIMITED_DARK_VAR_DN2: f64 = 0.24;
 /// Variance gain of white noise through `y - box5(y)`: (24/25)^2 + 24 / 25^2.
 const HIGHPASS_WHITE_GAIN: f64 = 0.96;
 
@@ -414,6 +422,31 @@ fn solve<const N: usize, const M: usize>(mut a: [[f64; M]; N]) -> Option<[f64; N
     x.iter().all(|v| v.is_finite()).then_some(x)
 }
 
+/// The temporal dark variance without dark current, DN^2, as the EMVA 1288 reference
+/// implementation estimates it: with darks at three or more exposure times, the intercept at
+/// zero exposure of the line fitted to dark variance against exposure; otherwise the dark
+/// variance at the shortest exposure.
+fn dark_variance_at_zero_exposure(points: &[PtcPoint]) -> f64 {
+    let mut exposures: Vec<f64> = points.iter().map(|p| p.exposure_s).collect();
+    exposures.sort_by(f64::total_cmp);
+    exposures.dedup();
+    if exposures.len() >= 3 {
+        let xs: Vec<f64> = points.iter().map(|p| p.exposure_s).collect();
+        let ys: Vec<f64> = points.iter().map(|p| p.dark_var_dn2).collect();
+        return fit_line(&xs, &ys).0;
+    }
+    let shortest: Vec<f64> = points.iter().filter(|p| p.exposure_s == exposures[0]).map(|p| p.dark_var_dn2).collect();
+    shortest.iter().sum::<f64>() / shortest.len() as f64
+}
+
+/// Least-squares slope `b` of `y = b x` (the line through the origin): dark-subtracted signal
+/// and noise vanish with the light, so EMVA 1288 fits K and R without an offset.
+fn fit_through_origin(xs: &[f64], ys: &[f64]) -> f64 {
+    let sxy: f64 = xs.iter().zip(ys).map(|(x, y)| x * y).sum();
+    let sxx: f64 = xs.iter().map(|x| x * x).sum();
+    if sxx > 0.0 { sxy / sxx } else { 0.0 }
+}
+
 /// Least-squares line `y = a + b x`: (a, b).
 fn fit_line(xs: &[f64], ys: &[f64]) -> (f64, f64) {
     let n = xs.len() as f64;
@@ -451,15 +484,15 @@ pub fn analyse(
         return Err(insufficient("fewer than 2 points below 70 % of saturation; cannot fit the system gain".into()));
     }
     let pick = |v: &[f64]| in_fit.iter().map(|&i| v[i]).collect::<Vec<f64>>();
-    let (_, k_standard) = fit_line(&pick(&signal), &pick(&noise));
+    let k_standard = fit_through_origin(&pick(&signal), &pick(&noise));
     if !(k_standard.is_finite() && k_standard > 0.0) {
         return Err(insufficient(format!("fitted system gain K = {k_standard} is not positive")));
     }
-    let (_, r_standard) = fit_line(&pick(&light), &pick(&signal));
+    let r_standard = fit_through_origin(&pick(&light), &pick(&signal));
     let linearized = if photons_known { linearize(&light, &signal, &noise, sat) } else { None };
     let (k, responsivity, k_method) = match &linearized {
         Some(lin) => {
-            let (_, k_lin) = fit_line(&pick(&lin.signal), &pick(&lin.noise));
+            let k_lin = fit_through_origin(&pick(&lin.signal), &pick(&lin.noise));
             (k_lin, Some(lin.responsivity), "linearized")
         }
         None if photons_known => (k_standard, Some(r_standard), "emva1288-r4"),
@@ -471,7 +504,7 @@ pub fn analyse(
     // Dark level and noise: the mean of the dark references used.
     let n = pts.len() as f64;
     let dark_mean_dn = pts.iter().map(|p| p.dark_mean_dn).sum::<f64>() / n;
-    let dark_var = pts.iter().map(|p| p.dark_var_dn2).sum::<f64>() / n;
+    let dark_var = dark_variance_at_zero_exposure(&pts).max(QUANTIZATION_LIMITED_DARK_VAR_DN2);
     let dark_noise_dn = dark_var.sqrt();
     let dark_noise_e = (dark_var - QUANTIZATION_VAR_DN2).max(0.0).sqrt() / k;
     let qe = responsivity.map(|r| r / k);
