@@ -9,7 +9,7 @@ import pytest
 ROOT = Path(__file__).resolve().parents[2]
 
 
-@pytest.fixture(scope="session")
+@pytest.fixture(scope="module")
 def cli():
     """Runs `scene-gen ARGS...` (target/release/scene-gen, or $SCENE_GEN_BIN) and returns its
     standard output; fails the test on a non-zero exit."""
