@@ -2,7 +2,7 @@
 
 from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, final
 
-__all__ = ["__version__", "Camera", "Dataset", "Scene", "catalog_json", "categories_json", "evaluate", "generate", "optimize", "optimize_config", "render", "score_candidates"]
+__all__ = ["__version__", "Camera", "Dataset", "Scene", "catalog_json", "categories_json", "evaluate", "generate", "optimize", "optimize_config", "render", "score_candidates", "seeds"]
 
 __version__: str
 
@@ -107,4 +107,5 @@ def optimize(
     stop_after: Optional[int] = None,
 ) -> str: ...
 def catalog_json() -> str: ...
+def seeds(text: str) -> List[int]: ...
 def categories_json() -> str: ...

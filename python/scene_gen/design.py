@@ -20,22 +20,8 @@ def _seed_list(seeds: Seeds) -> List[int]:
     if isinstance(seeds, int):
         return [seeds]
     if isinstance(seeds, str):
-        return list(_range_of(seeds))
+        return _native.seeds(seeds)
     return [int(s) for s in seeds]
-
-
-def _range_of(text: str) -> range:
-    text = text.strip()
-    try:
-        if "..=" in text:
-            a, b = text.split("..=")
-            return range(int(a), int(b) + 1)
-        if ".." in text:
-            a, b = text.split("..")
-            return range(int(a), int(b))
-        return range(int(text), int(text) + 1)
-    except ValueError:
-        raise ValueError(f"seeds '{text}': expected A..B, A..=B or one seed") from None
 
 
 def _seed_text(seeds: Seeds) -> str:

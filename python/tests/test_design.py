@@ -26,6 +26,10 @@ def test_evaluate_refuses_bad_input():
         sg.evaluate(CAMERA, seeds=[])
     with pytest.raises(ValueError, match="frames"):
         sg.evaluate(CAMERA, frames=0)
+    with pytest.raises(ValueError, match="holds no seed"):
+        sg.evaluate(CAMERA, seeds="3..1")
+    with pytest.raises(ValueError, match="expected A..B"):
+        sg.evaluate(CAMERA, seeds="zero..two")
 
 
 DATASET = dict(seeds="0..2", frames=3, max_width=96, quality="preview")

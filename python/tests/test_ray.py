@@ -31,7 +31,6 @@ def test_dataset_seeds_as_ray_tasks(tmp_path):
     dataset = sgr.write_dataset(tmp_path / "ray", CAMERA, progress=lambda d, n: seen.append((d, n)), **DATASET)
     assert seen[-1] == (3, 3) and dataset.missing_seeds() == []
     assert tree_bytes(tmp_path / "ray") == tree_bytes(tmp_path / "one")
-    assert ray.cluster_resources()["CPU"] == 2
 
 
 def test_optimizer_generations_as_ray_tasks(tmp_path):

@@ -328,9 +328,9 @@ pub fn run(args: &RenderArgs) -> Result<(), CliError> {
         let (pose, camera) = (*pose, *camera);
         let frame = capture.renderer().render(&camera).map_err(bad_input)?;
         let stem = format!("frame_{k:04}");
-        for scenario in capture.scenarios() {
+        let images = capture.sensor_images(&frame, &camera, &pose, u64::from(k));
+        for (scenario, image) in capture.scenarios().iter().zip(images) {
             let name = scenario.light.name();
-            let image = capture.sensor_image(&frame, &camera, &pose, scenario, u64::from(k));
             let (png, depth) = capture_png(&image);
             let (mean_dn, variance_dn2) = image.mean_variance();
             let sidecar = sidecar(&resolved, (scene.seed, k), scenario, &image, depth, &pose, &camera);

@@ -263,6 +263,13 @@ impl<'a> Capture<'a> {
         )
     }
 
+    /// [`Capture::sensor_image`] of every scenario, in the scenarios' order: what `render`,
+    /// `dataset` and the Python package record of one view.
+    #[must_use]
+    pub fn sensor_images(&self, frame: &Frame, pinhole: &Camera, pose: &Pose, key: u64) -> Vec<SensorImage> {
+        self.scenarios.iter().map(|scenario| self.sensor_image(frame, pinhole, pose, scenario, key)).collect()
+    }
+
     /// The 8-bit images of every scenario of `frame` under `rule`, the bytes of
     /// [`Capture::sensor_image`] through [`isp::to_8bit`], by the fused row path of
     /// [`isp::capture_8bit`] where it applies.

@@ -33,7 +33,8 @@ fn classify(e: DatasetError) -> PyErr {
     }
 }
 
-fn lighting(name: &str) -> PyResult<Vec<Lighting>> {
+/// The lightings of a `lighting` argument: `day`, `night` or `both`.
+pub fn lighting(name: &str) -> PyResult<Vec<Lighting>> {
     match name {
         "day" => Ok(vec![Lighting::Day]),
         "night" => Ok(vec![Lighting::Night]),
@@ -42,7 +43,8 @@ fn lighting(name: &str) -> PyResult<Vec<Lighting>> {
     }
 }
 
-fn quality(name: &str) -> PyResult<Quality> {
+/// The render quality of a `quality` argument: `preview`, `standard` or `high`.
+pub fn quality(name: &str) -> PyResult<Quality> {
     match name {
         "preview" => Ok(Quality::Preview),
         "standard" => Ok(Quality::Standard),
@@ -84,8 +86,7 @@ impl Dataset {
             (None, Some(n)) => FrameSelection::Every { step: n },
             (None, None) => FrameSelection::All,
         };
-        let house = house::options(envelope, min_room, rooms, furniture)?;
-        house.library().map_err(bad_input)?;
+        let house = house::checked_options(envelope, min_room, rooms, furniture)?;
         let spec = DatasetSpec {
             house,
             ..DatasetSpec::new(

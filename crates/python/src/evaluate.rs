@@ -38,8 +38,7 @@ pub fn evaluate(
         None => None,
         Some(cmd) => Some(ExternalDetector::parse(cmd).ok_or_else(|| bad_input("detector: the command is empty"))?),
     };
-    let house = house::options(envelope, min_room, rooms, furniture)?;
-    house.library().map_err(bad_input)?;
+    let house = house::checked_options(envelope, min_room, rooms, furniture)?;
     let config = EvalConfig {
         frames_per_scene: frames.unwrap_or(defaults.frames_per_scene),
         max_width_px: max_width.or(defaults.max_width_px),

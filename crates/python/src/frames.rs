@@ -4,16 +4,18 @@ use glam::Vec3;
 use pyo3::prelude::*;
 use pyo3::types::{PyByteArray, PyDict};
 use scene_gen::capture::Capture;
+use scene_gen::dataset::Lighting;
 use scene_gen::isp::{self, OutputRule};
 use scene_gen::path::{self, GivenPose, MAX_POSES};
 use scene_gen::radiometry::SensorImage;
+use scene_gen::render::Frame;
 use scene_gen::render::camera::Camera as Pinhole;
-use scene_gen::render::{Frame, RenderSettings};
 use scene_gen::scene::LightGroup;
 use scene_gen::trajectory::{self, Pose, TrajectoryParams};
 use scene_gen::view::ViewGeometry;
 
 use crate::camera::Camera;
+use crate::dataset;
 use crate::house::Scene;
 use crate::progress::Callback;
 use crate::{bad_input, failure};
@@ -27,7 +29,6 @@ struct Shot {
     lighting: &'static str,
     raw: SensorImage,
     image_8bit: Vec<u8>,
-    exposure_s: f64,
     gain_db: f64,
     plane_lux: f32,
     light_scale: f32,
@@ -39,26 +40,6 @@ struct PoseFrame {
     pinhole: Pinhole,
     frame: Frame,
     shots: Vec<Shot>,
-}
-
-/// The scenarios of a `lighting` name.
-fn groups(lighting: &str) -> PyResult<Vec<LightGroup>> {
-    match lighting {
-        "day" => Ok(vec![LightGroup::Day]),
-        "night" => Ok(vec![LightGroup::Night]),
-        "both" => Ok(vec![LightGroup::Day, LightGroup::Night]),
-        other => Err(bad_input(format!("lighting '{other}': expected 'day', 'night' or 'both'"))),
-    }
-}
-
-/// The render settings of a `quality` name.
-pub fn settings(quality: &str) -> PyResult<RenderSettings> {
-    match quality {
-        "preview" => Ok(RenderSettings::preview()),
-        "standard" => Ok(RenderSettings::standard()),
-        "high" => Ok(RenderSettings::high()),
-        other => Err(bad_input(format!("quality '{other}': expected 'preview', 'standard' or 'high'"))),
-    }
 }
 
 /// Poses from Python, checked as a path file's are: finite values, at most [`MAX_POSES`].
@@ -104,8 +85,8 @@ pub fn render<'py>(
     progress: Option<Py<PyAny>>,
 ) -> PyResult<Vec<Bound<'py, PyDict>>> {
     let resolved = camera.resolved(max_width)?;
-    let groups = groups(lighting)?;
-    let settings = settings(quality)?;
+    let groups: Vec<LightGroup> = dataset::lighting(lighting)?.into_iter().map(Lighting::group).collect();
+    let settings = dataset::quality(quality)?.settings();
     if frames == 0 {
         return Err(bad_input("frames must be at least 1"));
     }
@@ -135,21 +116,18 @@ pub fn render<'py>(
                 break;
             }
             let frame = capture.render(&pinhole).map_err(|e| e.to_string())?;
+            let images = capture.sensor_images(&frame, &pinhole, &pose, k);
             let shots = capture
                 .scenarios()
                 .iter()
-                .map(|scenario| {
-                    let raw = capture.sensor_image(&frame, &pinhole, &pose, scenario, k);
-                    let image_8bit = isp::to_8bit(&raw, OutputRule::Isp, &scenario.isp);
-                    Shot {
-                        lighting: scenario.light.name(),
-                        raw,
-                        image_8bit,
-                        exposure_s: resolved.spec.exposure_s,
-                        gain_db: scenario.gain_db,
-                        plane_lux: scenario.light.target_lux,
-                        light_scale: scenario.light.scale,
-                    }
+                .zip(images)
+                .map(|(scenario, raw)| Shot {
+                    image_8bit: isp::to_8bit(&raw, OutputRule::Isp, &scenario.isp),
+                    raw,
+                    lighting: scenario.light.name(),
+                    gain_db: scenario.gain_db,
+                    plane_lux: scenario.light.target_lux,
+                    light_scale: scenario.light.scale,
                 })
                 .collect();
             out.push(PoseFrame { pose, pinhole, frame, shots });
@@ -159,7 +137,8 @@ pub fn render<'py>(
     });
     callback.finish()?;
     let rendered = rendered.map_err(failure)?;
-    rendered.iter().enumerate().map(|(k, p)| pose_dict(py, k, p)).collect()
+    let exposure_s = resolved.spec.exposure_s;
+    rendered.iter().enumerate().map(|(k, p)| pose_dict(py, k, p, exposure_s)).collect()
 }
 
 /// Little-endian bytes of a buffer of samples, as a `bytearray` (NumPy reads it writable).
@@ -173,7 +152,7 @@ fn le_bytes<'py, T: Copy, const N: usize>(
 }
 
 /// The dict of one pose: buffers, geometry and its shots.
-fn pose_dict<'py>(py: Python<'py>, k: usize, p: &PoseFrame) -> PyResult<Bound<'py, PyDict>> {
+fn pose_dict<'py>(py: Python<'py>, k: usize, p: &PoseFrame, exposure_s: f64) -> PyResult<Bound<'py, PyDict>> {
     let f = &p.frame;
     let d = PyDict::new(py);
     let view = ViewGeometry::of(&p.pinhole);
@@ -202,7 +181,7 @@ fn pose_dict<'py>(py: Python<'py>, k: usize, p: &PoseFrame) -> PyResult<Bound<'p
             shot.set_item("channels", s.raw.channels)?;
             shot.set_item("bits", s.raw.bits)?;
             shot.set_item("image", PyByteArray::new(py, &s.image_8bit))?;
-            shot.set_item("exposure_s", s.exposure_s)?;
+            shot.set_item("exposure_s", exposure_s)?;
             shot.set_item("gain_db", s.gain_db)?;
             shot.set_item("plane_lux", s.plane_lux)?;
             shot.set_item("light_scale", s.light_scale)?;

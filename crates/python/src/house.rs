@@ -46,6 +46,18 @@ pub fn options(
     options_over(HouseOptions::default(), envelope, min_room, rooms, furniture)
 }
 
+/// [`options`], and the libraries they name load (so a bad folder is refused before any work).
+pub fn checked_options(
+    envelope: Option<&str>,
+    min_room: Option<f32>,
+    rooms: Option<PathBuf>,
+    furniture: Option<PathBuf>,
+) -> PyResult<HouseOptions> {
+    let options = options(envelope, min_room, rooms, furniture)?;
+    options.library().map_err(bad_input)?;
+    Ok(options)
+}
+
 /// A generated house.
 #[pyclass(frozen, module = "scene_gen._native")]
 #[derive(Clone, Debug)]

@@ -53,6 +53,13 @@ fn categories_json() -> PyResult<String> {
     serde_json::to_string(&scene_gen::dataset::categories()).map_err(failure)
 }
 
+/// The seeds of `A..B` (B excluded), `A..=B` or one seed, as the command line reads `--seeds`.
+#[pyfunction]
+fn seeds(text: &str) -> PyResult<Vec<u64>> {
+    let range: scene_gen::seeds::SeedRange = text.parse().map_err(bad_input)?;
+    Ok(range.iter().collect())
+}
+
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
@@ -67,5 +74,6 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(optimize::score_candidates, m)?)?;
     m.add_function(wrap_pyfunction!(catalog_json, m)?)?;
     m.add_function(wrap_pyfunction!(categories_json, m)?)?;
+    m.add_function(wrap_pyfunction!(seeds, m)?)?;
     Ok(())
 }

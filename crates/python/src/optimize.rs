@@ -7,7 +7,7 @@ use pyo3::prelude::*;
 use scene_gen::camera_spec::CameraSpec;
 use scene_gen::optimize::config::OptimizeConfig;
 use scene_gen::optimize::genes::Genome;
-use scene_gen::optimize::run::{Method, Progress, RunOptions, check_dir, run};
+use scene_gen::optimize::run::{Method, Progress, RunOptions, run};
 use scene_gen::optimize::{EvalObjective, Objective, ObjectiveError, Score};
 
 use crate::{bad_input, failure, house};
@@ -105,7 +105,6 @@ pub fn optimize(
 ) -> PyResult<String> {
     let config = parse_config(config_json)?;
     let method = self::method(method)?;
-    check_dir(&out, method, &config).map_err(bad_input)?;
     let mut objective: Box<dyn Objective + Send> = match score_batch {
         Some(score_batch) => Box::new(Callable { score_batch }),
         None => Box::new(EvalObjective::new(&config)),

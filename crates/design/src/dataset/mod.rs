@@ -626,8 +626,8 @@ impl Dataset {
                             })
                         })
                         .collect();
-                    for (&lighting, scenario) in self.spec.lighting.iter().zip(capture.scenarios()) {
-                        let image = capture.sensor_image(&frame, &camera, &pose, scenario, p as u64);
+                    let images = capture.sensor_images(&frame, &camera, &pose, p as u64);
+                    for (&lighting, image) in self.spec.lighting.iter().zip(images) {
                         let (bytes, _) = png::capture_png(&image);
                         self.write(&self.dir.join("images").join(Self::image_rel(seed, p, lighting)), &bytes)?;
                     }
