@@ -37,7 +37,10 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
-pub use scene_gen_camera::{camera_spec, capture, demosaic, develop, isp, optics, path, radiometry, sensor, view};
+pub use scene_gen_camera::{
+    bayer, camera_spec, capture, colour_checker, demosaic, develop, isp, optics, path, radiometry, sensor, spectral,
+    view,
+};
 pub use scene_gen_core::{io, rng, seeds, simd, stats};
 pub use scene_gen_design::{dataset, evaluate, optimize, plot, progress, serve};
 pub use scene_gen_export as export;

@@ -444,7 +444,7 @@ fn day_scores_at_least_night_on_the_same_camera_and_render_speckle_is_not_sensor
                 })
                 .collect();
             let dn = model.simulate(&photons, w as usize, h as usize, spec.exposure_s, gain_db, frame);
-            let cap = SensorImage { width: w, height: h, channels: 1, bits: model.adc_bits, dn };
+            let cap = SensorImage { width: w, height: h, channels: 1, bits: model.adc_bits, cfa: None, dn };
             let image: Vec<f32> = to_8bit(&cap, OutputRule::Isp, &isp).into_iter().map(f32::from).collect();
             let input = DetectorInput {
                 image_dn: &image,

@@ -342,16 +342,18 @@ fn render_grey(camera: &str, name: &str) -> Vec<f64> {
         "preview",
         "--lighting",
         "day",
+        "--raw",
     ];
     let out = scene_gen(&args);
     assert!(out.status.success(), "{camera}: {}", String::from_utf8_lossy(&out.stderr));
-    let img = image::open(dir.join("frame_0000_day.png")).unwrap().into_luma16();
+    let img = image::open(dir.join("frame_0000_day_raw.png")).unwrap().into_luma16();
     img.into_raw().into_iter().map(f64::from).collect()
 }
 
-/// Sum of squared horizontal neighbour differences: high-frequency energy.
+/// Sum of squared differences between horizontal neighbours of the same CFA colour (two pixels
+/// apart on a Bayer mosaic): high-frequency energy.
 fn gradient_energy(img: &[f64], w: usize) -> f64 {
-    img.chunks(w).map(|row| row.windows(2).map(|p| (p[1] - p[0]).powi(2)).sum::<f64>()).sum()
+    img.chunks(w).map(|row| row.windows(3).map(|p| (p[2] - p[0]).powi(2)).sum::<f64>()).sum()
 }
 
 #[test]

@@ -96,7 +96,7 @@ fn mean_var(v: &[f64]) -> (f64, f64) {
 fn small_render_writes_consistent_files_deterministically() {
     let (a, b) = (scratch("small-a"), scratch("small-b"));
     for dir in [&a, &b] {
-        let out = render("IMX174,focal_mm=4,pitch_deg=-10", dir, &[]);
+        let out = render("IMX174,focal_mm=4,pitch_deg=-10", dir, &["--raw"]);
         assert!(out.status.success(), "{}", stderr(&out));
     }
     let mut names: Vec<String> =
@@ -105,10 +105,12 @@ fn small_render_writes_consistent_files_deterministically() {
     let expected = [
         "frame_0000_day.json",
         "frame_0000_day.png",
+        "frame_0000_day_raw.png",
         "frame_0000_depth.png",
         "frame_0000_instances.png",
         "frame_0000_night.json",
         "frame_0000_night.png",
+        "frame_0000_night_raw.png",
         "trajectory.json",
     ];
     assert_eq!(names, expected);
@@ -116,14 +118,27 @@ fn small_render_writes_consistent_files_deterministically() {
         assert_eq!(std::fs::read(a.join(name)).unwrap(), std::fs::read(b.join(name)).unwrap(), "{name} differs");
     }
     // IMX174 (1936 x 1216, 12 bit) binned to 160 px wide: 160 x 100 (1216 / 12.1 = 100.496, rounded).
-    for name in ["frame_0000_day.png", "frame_0000_night.png", "frame_0000_depth.png", "frame_0000_instances.png"] {
+    for name in
+        ["frame_0000_day_raw.png", "frame_0000_night_raw.png", "frame_0000_depth.png", "frame_0000_instances.png"]
+    {
         let img = read_png(&a.join(name));
         assert_eq!((img.width(), img.height()), (160, 100), "{name}");
         assert_eq!(img.color(), image::ColorType::L16, "{name}: 16-bit grey expected");
     }
     for lighting in ["day", "night"] {
+        // The image opens as a normal photograph: 8-bit sRGB, mid-tones, colour.
+        let img = read_png(&a.join(format!("frame_0000_{lighting}.png")));
+        assert_eq!((img.width(), img.height(), img.color()), (160, 100, image::ColorType::Rgb8), "{lighting}");
+        let rgb = img.into_rgb8();
+        let (mean, _) = mean_var(&rgb.as_raw().iter().map(|&v| f64::from(v)).collect::<Vec<_>>());
+        assert!((40.0..=200.0).contains(&mean), "{lighting}: 8-bit mean {mean}");
+        let chroma = rgb.pixels().filter(|p| p.0.iter().max().unwrap() - p.0.iter().min().unwrap() > 12).count();
+        assert!(chroma > rgb.len() / 30, "{lighting}: {chroma} coloured pixels of {}", rgb.len());
         let side = json(&a.join(format!("frame_0000_{lighting}.json")));
-        let v = values(&read_png(&a.join(format!("frame_0000_{lighting}.png"))));
+        assert_eq!(side["image_channels"], 3);
+        assert_eq!(side["cfa_pattern"], "RGGB");
+        assert_eq!(side["raw_file"], format!("frame_0000_{lighting}_raw.png"));
+        let v = values(&read_png(&a.join(format!("frame_0000_{lighting}_raw.png"))));
         assert!(v.iter().all(|&x| x <= 4095.0), "{lighting}: values beyond 12 bits");
         let (m, var) = mean_var(&v);
         assert!((side["mean_dn"].as_f64().unwrap() - m).abs() < 1e-6, "{lighting}: sidecar mean vs {m}");
@@ -158,14 +173,14 @@ fn small_render_writes_consistent_files_deterministically() {
 fn night_is_darker_and_relatively_noisier_than_day() {
     let (noisy, clean) = (scratch("dn-noisy"), scratch("dn-clean"));
     for (dir, noise) in [(&noisy, "emva"), (&clean, "off")] {
-        let out = render(&format!("IMX174,focal_mm=4,noise={noise}"), dir, &[]);
+        let out = render(&format!("IMX174,focal_mm=4,noise={noise}"), dir, &["--raw"]);
         assert!(out.status.success(), "{}", stderr(&out));
     }
     let black = 4096.0 / 64.0;
     let mut stats = Vec::new();
     for lighting in ["day", "night"] {
-        let n = values(&read_png(&noisy.join(format!("frame_0000_{lighting}.png"))));
-        let c = values(&read_png(&clean.join(format!("frame_0000_{lighting}.png"))));
+        let n = values(&read_png(&noisy.join(format!("frame_0000_{lighting}_raw.png"))));
+        let c = values(&read_png(&clean.join(format!("frame_0000_{lighting}_raw.png"))));
         let signal = mean_var(&c).0 - black;
         let diff: Vec<f64> = n.iter().zip(&c).map(|(a, b)| a - b).collect();
         let noise = mean_var(&diff).1.sqrt();

@@ -46,6 +46,7 @@ class Dataset:
         min_room: Optional[float] = None,
         rooms: Optional[str] = None,
         furniture: Optional[str] = None,
+        raw: bool = False,
     ) -> "Dataset": ...
     @staticmethod
     def open(out: str) -> "Dataset": ...

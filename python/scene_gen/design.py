@@ -86,6 +86,7 @@ class Dataset:
         min_room: Optional[float] = None,
         rooms: Optional[PathLike] = None,
         furniture: Optional[PathLike] = None,
+        raw: bool = False,
     ) -> None:
         self._native = _native.Dataset(
             os.fspath(out),
@@ -96,6 +97,7 @@ class Dataset:
             every=every,
             max_width=max_width,
             quality=quality,
+            raw=raw,
             **house_kwargs(envelope, min_room, rooms, furniture),
         )
 
@@ -165,12 +167,14 @@ def write_dataset(
     rooms: Optional[PathLike] = None,
     furniture: Optional[PathLike] = None,
     progress: Optional[Progress] = None,
+    raw: bool = False,
 ) -> Dataset:
     """Makes the whole dataset in ``out``, byte for byte as ``scene-gen dataset`` does with the
     same options (a rerun resumes), and merges its COCO files. ``frames`` frames per house
-    evenly spaced along the walk, or every ``every``-th pose, or (neither) every pose."""
+    evenly spaced along the walk, or every ``every``-th pose, or (neither) every pose; ``raw``
+    also writes the raw captures under ``raw/``."""
     dataset = Dataset(
-        out, camera, seeds, lighting, frames, every, max_width, quality, envelope, min_room, rooms, furniture
+        out, camera, seeds, lighting, frames, every, max_width, quality, envelope, min_room, rooms, furniture, raw
     )
     dataset.init()
     dataset.run_shard(0, 1, progress)

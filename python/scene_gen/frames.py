@@ -28,9 +28,12 @@ _OPENCV_TO_OPENGL = np.diag([1.0, -1.0, -1.0, 1.0])
 class Frame:
     """One lighting of one pose.
 
-    ``image`` is the 8-bit grey image the evaluator's perception sees (the camera's ISP: black
-    level, fixed gain, sRGB curve); ``raw`` the sensor's digital numbers at its ADC depth
-    (``bits``), ``uint16``, ``(H, W)`` or ``(H, W, 3)``. ``depth`` is z-depth in metres
+    ``image`` is the camera's 8-bit image: sRGB ``(H, W, 3)`` for a colour sensor (its raw
+    Bayer mosaic through the ISP: black level, white balance, demosaicing, colour matrix, sRGB
+    curve), grey ``(H, W)`` for a monochrome one. ``raw`` is the sensor's digital numbers at
+    its ADC depth (``bits``), ``uint16``: the Bayer mosaic ``(H, W)`` whose layout is
+    ``cfa_pattern`` (``"RGGB"``...), a grey ``(H, W)`` image (``cfa_pattern`` is ``None``), or
+    ``(H, W, 3)`` on the affine noise path. ``depth`` is z-depth in metres
     (``inf`` where nothing is hit), ``instance_ids`` the manifest's instance ids (0: none),
     ``class_ids`` the COCO categories (0: none, 1..10 objects, 11 thresholds), ``normals`` unit
     world normals facing the camera (0 where nothing is hit). The geometry arrays are shared by
@@ -42,6 +45,7 @@ class Frame:
     image: np.ndarray
     raw: np.ndarray
     bits: int
+    cfa_pattern: Optional[str]
     depth: np.ndarray
     instance_ids: np.ndarray
     class_ids: np.ndarray
@@ -97,9 +101,10 @@ def _frames(record: Dict[str, Any]) -> List[Frame]:
             Frame(
                 index=record["index"],
                 lighting=shot["lighting"],
-                image=_array(shot["image"], "u1", (h, w)),
+                image=_array(shot["image"], "u1", (h, w) if shot["image_channels"] == 1 else (h, w, 3)),
                 raw=_array(shot["raw"], "<u2", raw_shape),
                 bits=shot["bits"],
+                cfa_pattern=shot["cfa_pattern"],
                 position=tuple(record["position"]),
                 yaw_deg=record["yaw_deg"],
                 pitch_deg=record["pitch_deg"],

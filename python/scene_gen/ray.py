@@ -77,11 +77,12 @@ def write_dataset(
     progress: Optional[Progress] = None,
     address: Optional[str] = None,
     num_cpus: float = 1,
+    raw: bool = False,
 ) -> Dataset:
     """:func:`scene_gen.write_dataset` with one Ray task per seed still missing (a rerun
     resumes), then the merge on the driver. ``progress(seeds_done, seeds)``."""
     dataset = Dataset(
-        out, camera, seeds, lighting, frames, every, max_width, quality, envelope, min_room, rooms, furniture
+        out, camera, seeds, lighting, frames, every, max_width, quality, envelope, min_room, rooms, furniture, raw
     )
     dataset.init()
     _init(address)

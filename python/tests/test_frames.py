@@ -27,14 +27,17 @@ def png(path):
 
 def test_render_matches_the_command_line(cli, tmp_path, scene):
     cli("render", "--seed", 5, "--camera", CAMERA, "--frames", 3, "--lighting", "both",
-        "--quality", "preview", "--max-width", 160, "--out", tmp_path)
+        "--quality", "preview", "--max-width", 160, "--raw", "--out", tmp_path)
     frames = sg.render(scene, CAMERA, frames=3, **RENDER)
     assert [(f.index, f.lighting) for f in frames] == [(k, l) for k in range(3) for l in ("day", "night")]
     for f in frames:
         stem = tmp_path / f"frame_{f.index:04d}"
         sidecar = json.loads((tmp_path / f"frame_{f.index:04d}_{f.lighting}.json").read_text())
-        assert np.array_equal(f.raw, png(f"{stem}_{f.lighting}.png"))
+        assert np.array_equal(f.raw, png(f"{stem}_{f.lighting}_raw.png"))
+        # OpenCV reads colour as BGR.
+        assert np.array_equal(f.image, cv2.cvtColor(png(f"{stem}_{f.lighting}.png"), cv2.COLOR_BGR2RGB))
         assert f.bits == sidecar["bits"] and f.gain_db == sidecar["gain_db"]
+        assert f.cfa_pattern == sidecar["cfa_pattern"] == "RGGB"
         np.testing.assert_array_equal(f.K, np.array(sidecar["K"]))
         np.testing.assert_array_equal(f.camera_to_world, np.array(sidecar["camera_to_world"]))
         assert np.array_equal(f.instance_ids, png(f"{stem}_instances.png").astype(np.uint32))
@@ -48,7 +51,8 @@ def test_render_matches_the_command_line(cli, tmp_path, scene):
 def test_frame_buffers_agree(scene):
     (f,) = sg.render(scene, CAMERA, frames=1, lighting="day", quality="preview", max_width=96)
     h, w = f.depth.shape
-    assert f.image.shape == f.raw.shape[:2] == f.instance_ids.shape == f.class_ids.shape == (h, w)
+    assert f.image.shape == (h, w, 3)
+    assert f.raw.shape == f.instance_ids.shape == f.class_ids.shape == (h, w)
     assert f.image.dtype == np.uint8 and f.raw.dtype == np.uint16 and f.raw.max() < 2**f.bits
     hit = np.isfinite(f.depth)
     assert hit.any()

@@ -64,6 +64,10 @@ pub struct DatasetArgs {
     /// Only merge the seeds' fragments into the COCO files (after all shards ran).
     #[arg(long)]
     pub merge: bool,
+    /// Also write the raw captures under `raw/` (DN at the ADC depth; a colour sensor's Bayer
+    /// mosaic, RGGB).
+    #[arg(long)]
+    pub raw: bool,
     /// The houses (recorded in DIR/dataset.json; every shard must give the same).
     #[command(flatten)]
     pub house: HouseArgs,
@@ -105,7 +109,7 @@ pub fn run(args: &DatasetArgs) -> Result<(), CliError> {
         QualityArg::High => Quality::High,
     };
     let house = args.house.checked()?;
-    let spec = DatasetSpec { house, ..DatasetSpec::new(seeds, camera, lighting, frames, quality) };
+    let spec = DatasetSpec { house, raw: args.raw, ..DatasetSpec::new(seeds, camera, lighting, frames, quality) };
     let dataset = Dataset::new(&args.out, spec).map_err(classify)?;
     dataset.check_dir().map_err(classify)?;
 

@@ -12,15 +12,24 @@
 //! ([`scene_gen::trajectory`]), or at every pose of a given path (`--poses FILE`, JSON or CSV,
 //! [`scene_gen::path`]). Per frame `k` (`kkkk` zero-padded):
 //!
-//! * `frame_kkkk_day.png` / `frame_kkkk_night.png`: the sensor image. EMVA and `noise = "off"`:
-//!   grey, raw DN at the ADC depth: 8-bit PNG for sensors of at most 8 bits, else 16-bit PNG
-//!   holding the DN unscaled (a 12-bit sensor's values stay in 0..4095). Affine noise: 8-bit
-//!   RGB.
+//! * `frame_kkkk_day.png` / `frame_kkkk_night.png`: the camera's 8-bit image, as its ISP
+//!   writes it ([`scene_gen::capture::Scenario::image_8bit`]): sRGB for a colour sensor (the
+//!   raw Bayer mosaic through black level, white balance, demosaicing, colour matrix and the
+//!   sRGB curve, [`scene_gen::bayer`]), grey for a monochrome one, the 8-bit RGB of the affine
+//!   noise path as it is.
+//! * with `--raw`, `frame_kkkk_day_raw.png` / `..._night_raw.png`: the raw capture, DN at the
+//!   ADC depth: 8-bit PNG for sensors of at most 8 bits, else 16-bit PNG holding the DN
+//!   unscaled (a 12-bit sensor's values stay in 0..4095). A colour sensor's is its Bayer mosaic
+//!   (one grey channel; the sidecar's `cfa_pattern` gives the layout, `black_level_dn` the
+//!   offset).
 //! * `frame_kkkk_day.json` / `..._night.json`: intrinsics (fx, fy, cx, cy in px, OpenCV
 //!   convention: pixel centres at integer coordinates) and the matrix `K`, the pose (position,
 //!   yaw, pitch, time) and `camera_to_world` (4x4, OpenCV camera axes, [`scene_gen::view`]), exposure,
 //!   gain, illuminance on the 0.75 m plane (the target after scaling and the value measured
-//!   before), and the image mean and variance in DN (population variance over every value).
+//!   before), and the raw capture's description (`channels`, `bits`, `png_bit_depth`,
+//!   `cfa_pattern`, `black_level_dn`, `raw_file` when written) with its mean and variance in DN
+//!   (population variance over every value); `image_channels` is 3 for an sRGB image, 1 for
+//!   grey.
 //! * `frame_kkkk_depth.png`: 16-bit z-depth in millimetres; 0 = no hit or beyond 65.535 m.
 //! * `frame_kkkk_instances.png`: 16-bit instance ids (0 = none; the manifest's
 //!   `instance_id`s of objects and thresholds).
@@ -40,7 +49,8 @@ use clap::{Args, ValueEnum};
 use scene_gen::camera_spec::{CameraSpec, ResolvedCamera};
 use scene_gen::capture::{Capture, Scenario};
 use scene_gen::config::GeneratorConfig;
-use scene_gen::dataset::png::{capture_png, depth_png, instances_png};
+use scene_gen::dataset::png::{capture_png, depth_png, image_png, instances_png};
+use scene_gen::demosaic::CfaPattern;
 use scene_gen::export::write_atomic;
 use scene_gen::generate::generate;
 use scene_gen::house::HouseOptions;
@@ -108,6 +118,10 @@ pub struct RenderArgs {
     pub max_width: Option<u32>,
     #[arg(long, value_enum, default_value_t = Quality::Standard)]
     pub quality: Quality,
+    /// Also write each raw capture (`frame_kkkk_<lighting>_raw.png`, DN at the ADC depth; a
+    /// colour sensor's Bayer mosaic).
+    #[arg(long)]
+    pub raw: bool,
     /// The house options. With `--scene` they default to the manifest's record; `--rooms` and
     /// `--furniture` then say where a library folder is now (its digest must match), and an
     /// `--envelope` or `--min-room` other than the manifest's is refused.
@@ -163,9 +177,16 @@ struct Sidecar<'a> {
     sensor: &'a str,
     width: u32,
     height: u32,
+    /// Channels of the 8-bit image: 3 (sRGB) or 1 (grey).
+    image_channels: u8,
+    /// The raw capture: its channels, ADC bits, PNG depth, CFA layout and black level.
     channels: u8,
     bits: u32,
     png_bit_depth: u8,
+    cfa_pattern: Option<CfaPattern>,
+    black_level_dn: f64,
+    /// The raw capture's file, when `--raw` wrote it.
+    raw_file: Option<String>,
     bin_factor: f64,
     pixel_pitch_um: f32,
     focal_mm: f32,
@@ -329,15 +350,26 @@ pub fn run(args: &RenderArgs) -> Result<(), CliError> {
         let frame = capture.renderer().render(&camera).map_err(bad_input)?;
         let stem = format!("frame_{k:04}");
         let images = capture.sensor_images(&frame, &camera, &pose, u64::from(k));
-        for (scenario, image) in capture.scenarios().iter().zip(images) {
+        for (scenario, raw) in capture.scenarios().iter().zip(images) {
             let name = scenario.light.name();
-            let (png, depth) = capture_png(&image);
-            let (mean_dn, variance_dn2) = image.mean_variance();
-            let sidecar = sidecar(&resolved, (scene.seed, k), scenario, &image, depth, &pose, &camera);
-            let sidecar = Sidecar { mean_dn, variance_dn2, ..sidecar };
+            let image = scenario.image_8bit(&raw);
+            let (raw_png, depth) = capture_png(&raw);
+            let (mean_dn, variance_dn2) = raw.mean_variance();
+            let raw_file = args.raw.then(|| format!("{stem}_{name}_raw.png"));
+            let sidecar = sidecar(&resolved, (scene.seed, k), scenario, &raw, depth, &pose, &camera);
+            let sidecar = Sidecar {
+                mean_dn,
+                variance_dn2,
+                image_channels: image.channels,
+                raw_file: raw_file.clone(),
+                ..sidecar
+            };
             let mut json = serde_json::to_string_pretty(&sidecar).map_err(failure)?;
             json.push('\n');
-            files.push((format!("{stem}_{name}.png"), png));
+            files.push((format!("{stem}_{name}.png"), image_png(&image)));
+            if let Some(raw_file) = raw_file {
+                files.push((raw_file, raw_png));
+            }
             files.push((format!("{stem}_{name}.json"), json.into_bytes()));
         }
         files.push((format!("{stem}_depth.png"), depth_png(&frame)));
@@ -373,7 +405,8 @@ pub fn run(args: &RenderArgs) -> Result<(), CliError> {
     Ok(())
 }
 
-/// The sidecar of frame `k` of the house of `seed` (its image statistics left at zero).
+/// The sidecar of frame `k` of the house of `seed` (its image statistics left at zero, no raw
+/// file, a grey image).
 fn sidecar<'a>(
     resolved: &'a ResolvedCamera,
     (seed, k): (u64, u32),
@@ -393,9 +426,13 @@ fn sidecar<'a>(
         sensor: &resolved.sensor.model,
         width: cap.width,
         height: cap.height,
+        image_channels: 1,
         channels: cap.channels,
         bits: cap.bits,
         png_bit_depth,
+        cfa_pattern: cap.cfa,
+        black_level_dn: scenario.isp.black,
+        raw_file: None,
         bin_factor: resolved.bin_factor,
         pixel_pitch_um: resolved.pixel_pitch_um,
         focal_mm: spec.focal_mm,

@@ -6,6 +6,9 @@
 //!     chart.mean.png (the noiseless expected image, DN x 16, for effect-injection tests)
 //! scene-gen target gap MEASURED.png --camera CAMERA --out DIR [--json]
 //!     DIR/report.md, DIR/report.json
+//! scene-gen target colour --camera CAMERA --out DIR [--lighting day|night|both] [--json]
+//!     DIR/colour_chart_<lighting>.png (8-bit sRGB), DIR/colour_chart_<lighting>_raw.png
+//!     (16-bit mosaic), DIR/colour_chart.json (every patch's CIEDE2000)
 //! ```
 //!
 //! The chart is simulated at most `--width-px` pixels across (the camera spec's `max_width_px`
@@ -16,7 +19,10 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context as _, anyhow};
 use clap::{Args, Subcommand};
 use scene_gen::camera_spec::{CameraSpec, ResolvedCamera};
+use scene_gen::capture::{illuminant, scenario_name, target_lux};
+use scene_gen::colour_checker;
 use scene_gen::export::write_atomic;
+use scene_gen::scene::LightGroup;
 use scene_gen::sensor::Catalog;
 use scene_gen::target::{self, LoopOptions, chart};
 
@@ -36,6 +42,27 @@ pub enum TargetCommand {
     Chart(ChartArgs),
     /// Compare a photograph of the chart with its simulation; name the missing effects.
     Gap(TargetGapArgs),
+    /// Photograph a ColorChecker through the camera's colour chain; CIEDE2000 of every patch.
+    Colour(ColourArgs),
+}
+
+#[derive(Args, Debug)]
+pub struct ColourArgs {
+    /// Camera (a colour sensor): a TOML file or `SENSOR[,key=value]...`; e.g. add
+    /// `noise=off,vignetting=false` to measure the colour chain alone.
+    #[arg(long)]
+    pub camera: String,
+    /// Output folder.
+    #[arg(long)]
+    pub out: PathBuf,
+    #[arg(long, value_enum, default_value_t = super::render::Lighting::Day)]
+    pub lighting: super::render::Lighting,
+    /// Simulated width in pixels when the camera spec gives no `max_width_px`.
+    #[arg(long, default_value_t = 320)]
+    pub width_px: u32,
+    /// Print only the JSON on stdout.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// Arguments both commands share: they fix the layout.
@@ -89,6 +116,7 @@ pub fn run(args: &TargetArgs) -> Result<(), CliError> {
     match &args.command {
         TargetCommand::Chart(a) => run_chart(a),
         TargetCommand::Gap(a) => run_gap(a),
+        TargetCommand::Colour(a) => run_colour(a),
     }
 }
 
@@ -188,5 +216,93 @@ fn run_gap(args: &TargetGapArgs) -> Result<(), CliError> {
             args.out.join("report.md").display()
         ));
     }
+    Ok(())
+}
+
+/// The ColorChecker through each scenario of `--lighting`.
+#[derive(serde::Serialize)]
+struct ColourReport<'a> {
+    camera: &'a str,
+    sensor: &'a str,
+    width: u32,
+    height: u32,
+    lightings: Vec<ColourLighting>,
+}
+
+#[derive(serde::Serialize)]
+struct ColourLighting {
+    lighting: &'static str,
+    illuminant: String,
+    target_lux: f32,
+    gain_db: f64,
+    #[serde(flatten)]
+    score: colour_checker::ChartScore,
+}
+
+fn run_colour(args: &ColourArgs) -> Result<(), CliError> {
+    let geometry = ChartGeometry { camera: args.camera.clone(), distance_m: 1.0, width_px: args.width_px };
+    let resolved = resolve(&geometry)?;
+    let groups: &[LightGroup] = match args.lighting {
+        super::render::Lighting::Day => &[LightGroup::Day],
+        super::render::Lighting::Night => &[LightGroup::Night],
+        super::render::Lighting::Both => &[LightGroup::Day, LightGroup::Night],
+    };
+    let mut files: Vec<(String, Vec<u8>)> = Vec::new();
+    let mut lightings = Vec::new();
+    for &group in groups {
+        let photo = colour_checker::photograph(&resolved, group, (1, 1)).ok_or_else(|| {
+            bad_input(anyhow!(
+                "--camera: {} has no colour filter array (a monochrome sensor or the affine noise path)",
+                resolved.sensor.model
+            ))
+        })?;
+        let name = scenario_name(group);
+        let (w, h) = (photo.raw.width, photo.raw.height);
+        let rgb = image::RgbImage::from_raw(w, h, photo.srgb.clone()).ok_or_else(|| failure(anyhow!("image size")))?;
+        let mut png = Vec::new();
+        rgb.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png).map_err(failure)?;
+        files.push((format!("colour_chart_{name}.png"), png));
+        files.push((format!("colour_chart_{name}_raw.png"), png16(&photo.raw.dn, w as usize, h as usize)?));
+        lightings.push(ColourLighting {
+            lighting: name,
+            illuminant: format!("{:?}", illuminant(group)),
+            target_lux: target_lux(group),
+            gain_db: if group == LightGroup::Day { resolved.spec.gain_day_db } else { resolved.spec.gain_night_db },
+            score: photo.score,
+        });
+    }
+    let report = ColourReport {
+        camera: &args.camera,
+        sensor: &resolved.sensor.model,
+        width: resolved.width_px,
+        height: resolved.height_px,
+        lightings,
+    };
+    let text = serde_json::to_string_pretty(&report).map_err(failure)?;
+    files.push(("colour_chart.json".to_string(), format!("{text}\n").into_bytes()));
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("cannot create {}", args.out.display()))
+        .map_err(failure)?;
+    for (name, bytes) in &files {
+        write_atomic(&args.out.join(name), bytes).map_err(failure)?;
+    }
+    if args.json {
+        emit(&format!("{text}\n"));
+        return Ok(());
+    }
+    let mut table = String::new();
+    for l in &report.lightings {
+        table.push_str(&format!("{} ({}, {} lux, {:.1} dB):\n", l.lighting, l.illuminant, l.target_lux, l.gain_db));
+        for p in &l.score.patches {
+            let m = p.measured_srgb;
+            table.push_str(&format!(
+                "  {:<14} sRGB {:>3} {:>3} {:>3} -> {:>5.1} {:>5.1} {:>5.1}  dE00 {:.2}\n",
+                p.name, p.reference_srgb[0], p.reference_srgb[1], p.reference_srgb[2], m[0], m[1], m[2], p.delta_e_2000
+            ));
+        }
+        table.push_str(&format!("  mean dE00 {:.2}, max {:.2}\n", l.score.mean_delta_e_2000, l.score.max_delta_e_2000));
+    }
+    table.push_str(&format!("wrote {} files to {}\n", files.len(), args.out.display()));
+    emit(&table);
     Ok(())
 }

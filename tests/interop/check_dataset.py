@@ -3,7 +3,8 @@
 usage: check_dataset.py DIR
 
 For each DIR/annotations/instances_<lighting>.json:
-* COCO() loads it; every image file, depth and mask PNG it names exists;
+* COCO() loads it; every image file, depth and mask PNG it names exists, and every image is an
+  8-bit picture of the annotated size;
 * for every annotation, pycocotools' mask.decode(annToRLE) equals (mask PNG == instance_id),
   mask.area equals `area`, and mask.toBbox equals `bbox`;
 * COCOeval of the annotations as detections (score 1) gives AP = 1.0 for bbox and segm.
@@ -38,7 +39,9 @@ def check(root, path):
         img = coco.loadImgs(img_id)[0]
         for key in ("depth_file", "mask_file"):
             assert os.path.isfile(os.path.join(root, img[key])), img[key]
-        assert os.path.isfile(os.path.join(root, "images", img["file_name"])), img["file_name"]
+        picture = cv2.imread(os.path.join(root, "images", img["file_name"]), cv2.IMREAD_UNCHANGED)
+        assert picture is not None, img["file_name"]
+        assert picture.dtype == np.uint8 and picture.shape[:2] == (img["height"], img["width"]), (picture.shape, img)
         ids = read_png16(os.path.join(root, img["mask_file"]))
         assert ids.shape == (img["height"], img["width"]), (ids.shape, img)
         for ann in coco.loadAnns(coco.getAnnIds(imgIds=[img_id])):

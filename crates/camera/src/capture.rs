@@ -25,10 +25,12 @@ use scene_gen_scene::lights::{DAY_TARGET_LUX, NIGHT_TARGET_LUX, TARGET_PLANE_M};
 use scene_gen_scene::scene::{LightGroup, Scene};
 use scene_gen_scene::trajectory::Pose;
 
+use crate::bayer::{self, ColourIsp};
 use crate::camera_spec::{NoiseKind, ResolvedCamera};
 use crate::isp::{self, Isp, OutputRule};
 use crate::optics::{OpticsInput, agent_velocity};
 use crate::radiometry::{SensorImage, capture_frame};
+use crate::spectral::{ChannelMatrix, Illuminant, NIGHT_CCT_K, QeCurves};
 
 /// Why a capture could not be set up or a frame not be taken.
 #[derive(Debug, thiserror::Error)]
@@ -114,14 +116,73 @@ pub fn light_scales(
         .collect()
 }
 
+/// The spectrum of a light group's scenario: CIE D65 by day, warm-white (a
+/// [`NIGHT_CCT_K`] Planckian radiator) by night.
+#[must_use]
+pub fn illuminant(group: LightGroup) -> Illuminant {
+    match group {
+        LightGroup::Day => Illuminant::D65,
+        LightGroup::Night => Illuminant::Planck(NIGHT_CCT_K),
+    }
+}
+
+/// The colour the scene's renderer gives a light group (linear sRGB, any scale): white by day
+/// (the scene's sun and sky tints average to about D65, whose colour is the sRGB white), by
+/// night the intensity-weighted mean colour of the group's lights (the lamps' warm tints). The
+/// colour capture divides it out and applies the scenario's [`illuminant`] spectrum instead.
+#[must_use]
+pub fn rendered_tint(scene: &Scene, group: LightGroup) -> [f64; 3] {
+    if group == LightGroup::Day {
+        return [1.0; 3];
+    }
+    let mut sum = [0.0f64; 3];
+    for light in scene.lights.iter().filter(|l| l.group == group) {
+        (0..3).for_each(|c| sum[c] += f64::from(light.color[c]) * f64::from(light.intensity));
+    }
+    if sum.iter().all(|&v| v > 0.0) { sum } else { [1.0; 3] }
+}
+
 /// One scenario of a capture: its light, gain and ISP.
 #[derive(Clone, Copy, Debug)]
 pub struct Scenario {
     pub light: ScenarioLight,
     /// Analogue gain, dB (the camera spec's day or night gain).
     pub gain_db: f64,
-    /// The fixed ISP of this camera at this gain and target illuminance.
+    /// The fixed grey ISP of this camera at this gain and target illuminance (the evaluator's
+    /// luminance image).
     pub isp: Isp,
+    /// The colour ISP, for a camera that samples through a CFA ([`bayer::cfa_of`]).
+    pub colour: Option<ColourIsp>,
+}
+
+/// An 8-bit image as the camera's ISP writes it.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Image8 {
+    pub width: u32,
+    pub height: u32,
+    /// 1 (grey) or 3 (sRGB, interleaved).
+    pub channels: u8,
+    pub bytes: Vec<u8>,
+}
+
+impl Scenario {
+    /// The 8-bit image of a capture of this scenario: a raw mosaic developed to sRGB, a grey
+    /// capture through the grey ISP, the affine path's 8-bit RGB as it is.
+    ///
+    /// # Panics
+    /// If a mosaic comes without this scenario's colour ISP.
+    #[must_use]
+    pub fn image_8bit(&self, raw: &SensorImage) -> Image8 {
+        let (width, height) = (raw.width, raw.height);
+        if raw.cfa.is_some() {
+            let colour = self.colour.as_ref().expect("a mosaic has its scenario's colour ISP");
+            return Image8 { width, height, channels: 3, bytes: colour.develop(raw) };
+        }
+        if raw.channels == 3 {
+            return Image8 { width, height, channels: 3, bytes: raw.dn.iter().map(|&v| v.min(255) as u8).collect() };
+        }
+        Image8 { width, height, channels: 1, bytes: isp::to_8bit(raw, OutputRule::Isp, &self.isp) }
+    }
 }
 
 /// A camera in a house under one or more lighting scenarios (see the module docs).
@@ -163,6 +224,7 @@ impl<'a> Capture<'a> {
     ) -> Result<Capture<'a>, CaptureError> {
         let renderer = Renderer::new(scene, settings);
         let channels = if camera.spec.noise == NoiseKind::Affine { 3 } else { 1 };
+        let curves = QeCurves::typical_bayer(camera.sensor.quantum_efficiency);
         let scenarios = light_scales(&renderer, scene.seed, groups)?
             .into_iter()
             .map(|light| {
@@ -170,8 +232,14 @@ impl<'a> Capture<'a> {
                     LightGroup::Day => camera.spec.gain_day_db,
                     LightGroup::Night => camera.spec.gain_night_db,
                 };
-                let isp = Isp::for_scenario(camera, gain_db, f64::from(light.target_lux), channels);
-                Scenario { light, gain_db, isp }
+                let target_lux = f64::from(light.target_lux);
+                let isp = Isp::for_scenario(camera, gain_db, target_lux, channels);
+                let colour = bayer::cfa_of(camera).map(|pattern| {
+                    let matrix =
+                        ChannelMatrix::new(&curves, illuminant(light.group), rendered_tint(scene, light.group));
+                    ColourIsp::for_scenario(camera, pattern, matrix, gain_db, target_lux)
+                });
+                Scenario { light, gain_db, isp, colour }
             })
             .collect();
         Ok(Capture {
@@ -252,15 +320,29 @@ impl<'a> Capture<'a> {
         key: u64,
     ) -> SensorImage {
         let optics = OpticsInput { depth_m: &frame.depth_m, velocity_m_s: self.velocity(pose) };
-        capture_frame(
-            self.camera,
-            pinhole,
-            &scenario.light.radiance(frame),
-            Some(optics),
-            scenario.gain_db,
-            self.pattern_seed,
-            self.frame_seed(key, scenario),
-        )
+        let radiance = scenario.light.radiance(frame);
+        let frame_seed = self.frame_seed(key, scenario);
+        match &scenario.colour {
+            Some(colour) => bayer::capture_mosaic(
+                self.camera,
+                pinhole,
+                &radiance,
+                Some(optics),
+                &colour.matrix,
+                colour.develop.pattern,
+                scenario.gain_db,
+                (self.pattern_seed, frame_seed),
+            ),
+            None => capture_frame(
+                self.camera,
+                pinhole,
+                &radiance,
+                Some(optics),
+                scenario.gain_db,
+                self.pattern_seed,
+                frame_seed,
+            ),
+        }
     }
 
     /// [`Capture::sensor_image`] of every scenario, in the scenarios' order: what `render`,

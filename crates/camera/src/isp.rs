@@ -403,7 +403,7 @@ mod tests {
         assert_eq!(OutputRule::parse("ISP"), Ok(OutputRule::Isp));
         assert_eq!(OutputRule::parse("top-bits"), Ok(OutputRule::TopBits));
         assert!(OutputRule::parse("auto").is_err());
-        let cap = SensorImage { width: 2, height: 1, channels: 1, bits: 12, dn: vec![4095, 300] };
+        let cap = SensorImage { width: 2, height: 1, channels: 1, bits: 12, cfa: None, dn: vec![4095, 300] };
         let isp = Isp { black: 64.0, mid_grey_signal: 100.0 };
         assert_eq!(to_8bit(&cap, OutputRule::TopBits, &isp), vec![255, 18]);
         let out = to_8bit(&cap, OutputRule::Isp, &isp);

@@ -18,13 +18,19 @@
 //! * [`demosaic`]: Bayer mosaics to RGB (bilinear, Malvar-He-Cutler, Hamilton-Adams
 //!   directional), and [`develop`]: a raw mosaic to 8-bit sRGB (black level, white balance,
 //!   demosaic, colour matrix, sRGB curve), as `scene-gen isp` runs it.
+//! * [`spectral`]: illuminant spectra (D65, warm white), the colour channels' quantum efficiency
+//!   curves, and the matrix from rendered linear RGB to electrons per channel; [`bayer`]: the
+//!   colour sensor's CFA sampling, noise on the mosaic and fixed colour ISP; [`colour_checker`]:
+//!   the 24-patch chart through that chain, scored by CIEDE2000.
 //! * [`capture`]: the one place that chains them: a house, a camera and lighting scenarios in,
 //!   frames out.
 //! * [`view`]: a frame's intrinsics and camera-to-world pose, in the conventions datasets carry.
 //! * [`path`]: a camera path the user gives (JSON or CSV poses) instead of the agent's walk.
 
+pub mod bayer;
 pub mod camera_spec;
 pub mod capture;
+pub mod colour_checker;
 pub mod demosaic;
 pub mod develop;
 pub mod isp;
@@ -32,4 +38,5 @@ pub mod optics;
 pub mod path;
 pub mod radiometry;
 pub mod sensor;
+pub mod spectral;
 pub mod view;

@@ -17,6 +17,7 @@
 //! camera velocity they need; [`capture`] applies only the ones that need neither.
 
 use crate::camera_spec::{NoiseKind, ResolvedCamera};
+use crate::demosaic::CfaPattern;
 use crate::optics::{OpticsInput, OpticsPlan, apply_plan};
 use crate::sensor::AffineNoise;
 use scene_gen_render::{Camera, luminance, sensor_illuminance_lux};
@@ -86,6 +87,8 @@ pub struct SensorImage {
     pub channels: u8,
     /// Significant bits of a value: the ADC depth, or 8 on the affine path.
     pub bits: u32,
+    /// The colour filter layout when the values are a raw Bayer mosaic (one channel).
+    pub cfa: Option<CfaPattern>,
     /// Row-major values, `width * height * channels`.
     pub dn: Vec<u16>,
 }
@@ -161,7 +164,14 @@ pub fn capture_frame(
             let lum: Vec<f32> = radiance.iter().map(|c| luminance(glam::Vec3::from(*c))).collect();
             let photons = sensor_plane(&lum);
             let dn = model.simulate(&photons, w, h, t, gain_db, frame_seed);
-            SensorImage { width: camera.width_px, height: camera.height_px, channels: 1, bits: model.adc_bits, dn }
+            SensorImage {
+                width: camera.width_px,
+                height: camera.height_px,
+                channels: 1,
+                bits: model.adc_bits,
+                cfa: None,
+                dn,
+            }
         }
         NoiseKind::Off => {
             let lum: Vec<f32> = radiance.iter().map(|c| luminance(glam::Vec3::from(*c))).collect();
@@ -175,6 +185,7 @@ pub fn capture_frame(
                 height: camera.height_px,
                 channels: 1,
                 bits: model.adc_bits,
+                cfa: None,
                 dn: dn.collect(),
             }
         }
@@ -197,6 +208,7 @@ pub fn capture_frame(
                 height: camera.height_px,
                 channels: 3,
                 bits: 8,
+                cfa: None,
                 dn: noisy.into_iter().map(u16::from).collect(),
             }
         }

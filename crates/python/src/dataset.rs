@@ -63,7 +63,7 @@ impl Dataset {
     /// seed); checks everything and refuses a folder holding a dataset of other settings, but
     /// writes nothing.
     #[new]
-    #[pyo3(signature = (out, camera, seeds, lighting="both", frames=None, every=None, max_width=None, quality="standard", envelope=None, min_room=None, rooms=None, furniture=None))]
+    #[pyo3(signature = (out, camera, seeds, lighting="both", frames=None, every=None, max_width=None, quality="standard", envelope=None, min_room=None, rooms=None, furniture=None, raw=false))]
     #[allow(clippy::too_many_arguments)] // The keyword arguments of the Python call.
     fn new(
         out: PathBuf,
@@ -78,6 +78,7 @@ impl Dataset {
         min_room: Option<f32>,
         rooms: Option<PathBuf>,
         furniture: Option<PathBuf>,
+        raw: bool,
     ) -> PyResult<Dataset> {
         let seeds = dataset::parse_seeds(seeds).map_err(bad_input)?;
         let frames = match (frames, every) {
@@ -89,6 +90,7 @@ impl Dataset {
         let house = house::checked_options(envelope, min_room, rooms, furniture)?;
         let spec = DatasetSpec {
             house,
+            raw,
             ..DatasetSpec::new(
                 seeds,
                 camera.spec_binned(max_width)?,

@@ -3,9 +3,8 @@
 use glam::Vec3;
 use pyo3::prelude::*;
 use pyo3::types::{PyByteArray, PyDict};
-use scene_gen::capture::Capture;
+use scene_gen::capture::{Capture, Image8};
 use scene_gen::dataset::Lighting;
-use scene_gen::isp::{self, OutputRule};
 use scene_gen::path::{self, GivenPose, MAX_POSES};
 use scene_gen::radiometry::SensorImage;
 use scene_gen::render::Frame;
@@ -24,11 +23,11 @@ use crate::{bad_input, failure};
 /// camera's height, pitch or the walk's timing apply.
 type PoseTuple = (f32, f32, Option<f32>, f32, Option<f32>, Option<f32>);
 
-/// One lighting of one pose: the sensor's DN and the 8-bit image the evaluator's perception sees.
+/// One lighting of one pose: the sensor's DN and the camera's 8-bit image.
 struct Shot {
     lighting: &'static str,
     raw: SensorImage,
-    image_8bit: Vec<u8>,
+    image: Image8,
     gain_db: f64,
     plane_lux: f32,
     light_scale: f32,
@@ -122,7 +121,7 @@ pub fn render<'py>(
                 .iter()
                 .zip(images)
                 .map(|(scenario, raw)| Shot {
-                    image_8bit: isp::to_8bit(&raw, OutputRule::Isp, &scenario.isp),
+                    image: scenario.image_8bit(&raw),
                     raw,
                     lighting: scenario.light.name(),
                     gain_db: scenario.gain_db,
@@ -180,7 +179,9 @@ fn pose_dict<'py>(py: Python<'py>, k: usize, p: &PoseFrame, exposure_s: f64) -> 
             shot.set_item("raw", le_bytes(py, &s.raw.dn, u16::to_le_bytes))?;
             shot.set_item("channels", s.raw.channels)?;
             shot.set_item("bits", s.raw.bits)?;
-            shot.set_item("image", PyByteArray::new(py, &s.image_8bit))?;
+            shot.set_item("image", PyByteArray::new(py, &s.image.bytes))?;
+            shot.set_item("image_channels", s.image.channels)?;
+            shot.set_item("cfa_pattern", s.raw.cfa.map(|p| p.name()))?;
             shot.set_item("exposure_s", exposure_s)?;
             shot.set_item("gain_db", s.gain_db)?;
             shot.set_item("plane_lux", s.plane_lux)?;

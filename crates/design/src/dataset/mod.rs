@@ -57,7 +57,9 @@ pub use rle::{Rle, RleJson};
 pub use shard::{SeedRange, Shard, ShardError, parse_seeds};
 
 /// Schema of `dataset.json`.
-pub const SCHEMA: &str = "scene-gen/dataset/1";
+/// Version 2: `images/` hold the camera's 8-bit image (sRGB for colour sensors) instead of the
+/// raw capture, which `raw/` holds when [`DatasetSpec::raw`] is set.
+pub const SCHEMA: &str = "scene-gen/dataset/2";
 
 /// Poses per walk an image id can tell apart (20 bits).
 pub const MAX_POSES: usize = 1 << 20;
@@ -204,6 +206,10 @@ pub struct DatasetSpec {
     /// The houses: envelope, smallest room, libraries (absent when default).
     #[serde(default, skip_serializing_if = "HouseOptions::is_default")]
     pub house: HouseOptions,
+    /// Also write the raw captures under `raw/` (DN at the ADC depth; a colour sensor's Bayer
+    /// mosaic).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub raw: bool,
 }
 
 impl DatasetSpec {
@@ -227,6 +233,7 @@ impl DatasetSpec {
             quality,
             ground_truth: GroundTruthConfig::default(),
             house: HouseOptions::default(),
+            raw: false,
         }
     }
 
@@ -552,6 +559,9 @@ impl Dataset {
     fn frame_files(&self, seed: u64, pose: usize) -> Vec<PathBuf> {
         let mut files: Vec<PathBuf> =
             self.spec.lighting.iter().map(|&l| self.dir.join("images").join(Self::image_rel(seed, pose, l))).collect();
+        if self.spec.raw {
+            files.extend(self.spec.lighting.iter().map(|&l| self.dir.join("raw").join(Self::image_rel(seed, pose, l))));
+        }
         files.push(self.dir.join(Self::depth_rel(seed, pose)));
         files.push(self.dir.join(Self::mask_rel(seed, pose)));
         files.push(self.dir.join(Self::classes_rel(seed, pose)));
@@ -627,9 +637,13 @@ impl Dataset {
                         })
                         .collect();
                     let images = capture.sensor_images(&frame, &camera, &pose, p as u64);
-                    for (&lighting, image) in self.spec.lighting.iter().zip(images) {
-                        let (bytes, _) = png::capture_png(&image);
-                        self.write(&self.dir.join("images").join(Self::image_rel(seed, p, lighting)), &bytes)?;
+                    for ((&lighting, raw), scenario) in self.spec.lighting.iter().zip(images).zip(capture.scenarios()) {
+                        let image = png::image_png(&scenario.image_8bit(&raw));
+                        self.write(&self.dir.join("images").join(Self::image_rel(seed, p, lighting)), &image)?;
+                        if self.spec.raw {
+                            let (bytes, _) = png::capture_png(&raw);
+                            self.write(&self.dir.join("raw").join(Self::image_rel(seed, p, lighting)), &bytes)?;
+                        }
                     }
                     self.write(&self.dir.join(Self::depth_rel(seed, p)), &png::depth_png(&frame))?;
                     self.write(&self.dir.join(Self::mask_rel(seed, p)), &png::instances_png(&frame))?;

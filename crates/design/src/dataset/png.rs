@@ -1,5 +1,6 @@
 //! PNG encodings of a rendered frame, shared by `scene-gen render` and `scene-gen dataset`.
 
+use scene_gen_camera::capture::Image8;
 use scene_gen_camera::radiometry::SensorImage;
 use scene_gen_render::Frame;
 
@@ -19,8 +20,9 @@ fn encode(img: &image::DynamicImage) -> Vec<u8> {
     out.into_inner()
 }
 
-/// The PNG of a sensor capture and its bit depth: RGB captures as 8-bit RGB, grey captures of
-/// at most 8 bits as 8-bit grey, deeper ones as 16-bit grey holding the DN unscaled.
+/// The PNG of a raw sensor capture and its bit depth: RGB captures (the affine path) as 8-bit
+/// RGB, grey captures and Bayer mosaics of at most 8 bits as 8-bit grey, deeper ones as 16-bit
+/// grey holding the DN unscaled.
 #[must_use]
 pub fn capture_png(cap: &SensorImage) -> (Vec<u8>, u8) {
     let (w, h) = (cap.width, cap.height);
@@ -34,6 +36,17 @@ pub fn capture_png(cap: &SensorImage) -> (Vec<u8>, u8) {
         (encode(&image::DynamicImage::ImageLuma8(img)), 8)
     } else {
         (png_gray16(w, h, cap.dn.clone()), 16)
+    }
+}
+
+/// The PNG of an ISP's 8-bit image: grey or sRGB.
+#[must_use]
+pub fn image_png(img: &Image8) -> Vec<u8> {
+    let (w, h, bytes) = (img.width, img.height, img.bytes.clone());
+    if img.channels == 3 {
+        encode(&image::DynamicImage::ImageRgb8(image::RgbImage::from_raw(w, h, bytes).expect("sizes match")))
+    } else {
+        encode(&image::DynamicImage::ImageLuma8(image::GrayImage::from_raw(w, h, bytes).expect("sizes match")))
     }
 }
 

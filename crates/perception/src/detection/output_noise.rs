@@ -164,7 +164,7 @@ mod tests {
         let (w, h) = (200usize, 200usize);
         let model = r.sensor_model(0);
         let dn = model.simulate(&vec![photons; w * h], w, h, r.spec.exposure_s, gain_db, 7);
-        let cap = SensorImage { width: w as u32, height: h as u32, channels: 1, bits: model.adc_bits, dn };
+        let cap = SensorImage { width: w as u32, height: h as u32, channels: 1, bits: model.adc_bits, cfa: None, dn };
         let out = to_8bit(&cap, OutputRule::Isp, isp);
         let n = out.len() as f64;
         let mean = out.iter().map(|&v| f64::from(v)).sum::<f64>() / n;

@@ -1,0 +1,257 @@
+//! The Bayer camera: how a colour sensor samples a scene through its colour filter array, and
+//! the fixed ISP that develops its raw mosaic into an 8-bit sRGB image.
+//!
+//! ```text
+//! rendered linear RGB (nit) ─► 555 nm-equivalent photons per rendered channel (camera equation)
+//!   ─► optics (each plane) ─► electrons of the pixel's CFA channel (spectral::ChannelMatrix)
+//!   ─► sensor noise on the mosaic (SensorModel) ─► raw DN ─► ISP ─► 8-bit sRGB
+//! ```
+//!
+//! Every pixel collects the electrons of one channel only, as a real CFA does, so the noise
+//! (shot, read, fixed pattern, quantisation) lands on the mosaic and demosaicing spreads it,
+//! as it does in a camera. The channel's electrons come from the scenario's spectral matrix
+//! ([`crate::spectral`]); the sensor model is then run with a quantum efficiency of 1, since
+//! the matrix already holds the channel's QE.
+//!
+//! The ISP ([`ColourIsp`]) is fixed per camera and scenario, like [`crate::isp::Isp`]: no
+//! statistics of the frame are used.
+//!
+//! 1. Black level: the model's output with no light and no exposure.
+//! 2. White balance and digital gain in one gain per channel, set on an 18 % grey lit by the
+//!    scenario's light at its target illuminance: each channel's expected signal for it is
+//!    mapped to linear 0.18 (a camera's white-balance preset for the light, and the same
+//!    exposure rule as the grey ISP).
+//! 3. Demosaicing ([`crate::demosaic`], the directional method).
+//! 4. Colour correction: the inverse of the white-balanced channels' response to the sRGB
+//!    primaries ([`ChannelMatrix::colour_correction`]).
+//! 5. The sRGB curve and 8 bits ([`crate::develop`]).
+
+use crate::camera_spec::{NoiseKind, ResolvedCamera};
+use crate::demosaic::CfaPattern;
+use crate::develop::{Develop, develop};
+use crate::isp::MID_GREY_REFLECTANCE;
+use crate::optics::{OpticsInput, OpticsPlan, apply_plan};
+use crate::radiometry::{SensorImage, photon_image, photons_per_pixel};
+use crate::sensor::{Colour, SensorModel};
+use crate::spectral::ChannelMatrix;
+use scene_gen_render::Camera;
+
+/// The colour filter layout of the catalog's colour sensors, as read out from the first row.
+///
+/// The catalog does not record a per-part layout; RGGB is the readout of the Sony parts'
+/// default window and the one most of the catalog uses.
+pub const CATALOG_PATTERN: CfaPattern = CfaPattern::Rggb;
+
+/// The CFA layout `resolved` samples through: the catalog's for a colour sensor on the EMVA or
+/// noiseless path, none for a monochrome sensor or the affine (8-bit RGB) path of the
+/// reference paper.
+#[must_use]
+pub fn cfa_of(resolved: &ResolvedCamera) -> Option<CfaPattern> {
+    (resolved.sensor.colour == Colour::Colour && resolved.spec.noise != NoiseKind::Affine).then_some(CATALOG_PATTERN)
+}
+
+/// The sensor model of a colour capture: the camera's, with a quantum efficiency of 1 because
+/// the channel matrix already converts photons to electrons.
+#[must_use]
+pub fn electron_model(resolved: &ResolvedCamera, pattern_seed: u64) -> SensorModel {
+    SensorModel { quantum_efficiency: 1.0, ..resolved.sensor_model(pattern_seed) }
+}
+
+/// The raw mosaic of `radiance` (linear RGB nit per pixel, scaled to the scenario) seen by the
+/// colour camera `resolved` as `camera` through `pattern`, with the scenario's spectral
+/// `matrix`, at `gain_db`: with the sensor's noise, or its expected values rounded when the
+/// spec's noise is off. `pattern_seed` fixes the sensor instance, `frame_seed` the temporal
+/// noise; `optics` as in [`crate::radiometry::capture_frame`].
+///
+/// # Panics
+/// If `radiance.len()` is not the camera's pixel count.
+#[must_use]
+#[allow(clippy::too_many_arguments)]
+pub fn capture_mosaic(
+    resolved: &ResolvedCamera,
+    camera: &Camera,
+    radiance: &[[f32; 3]],
+    optics: Option<OpticsInput<'_>>,
+    matrix: &ChannelMatrix,
+    pattern: CfaPattern,
+    gain_db: f64,
+    (pattern_seed, frame_seed): (u64, u64),
+) -> SensorImage {
+    let (w, h) = (camera.width_px as usize, camera.height_px as usize);
+    let electrons = mosaic_electrons(resolved, camera, radiance, optics, matrix, pattern);
+    let model = electron_model(resolved, pattern_seed);
+    let t = resolved.spec.exposure_s;
+    let dn = if resolved.spec.noise == NoiseKind::Off {
+        let max = model.max_dn();
+        electrons
+            .iter()
+            .map(|&e| model.expected_mean_dn(f64::from(e), t, gain_db).round().clamp(0.0, max) as u16)
+            .collect()
+    } else {
+        model.simulate(&electrons, w, h, t, gain_db, frame_seed)
+    };
+    SensorImage {
+        width: camera.width_px,
+        height: camera.height_px,
+        channels: 1,
+        bits: model.adc_bits,
+        cfa: Some(pattern),
+        dn,
+    }
+}
+
+/// Mean electrons of each pixel's CFA channel.
+fn mosaic_electrons(
+    resolved: &ResolvedCamera,
+    camera: &Camera,
+    radiance: &[[f32; 3]],
+    optics: Option<OpticsInput<'_>>,
+    matrix: &ChannelMatrix,
+    pattern: CfaPattern,
+) -> Vec<f32> {
+    let (w, h) = (camera.width_px as usize, camera.height_px as usize);
+    assert_eq!(radiance.len(), w * h, "radiance must have one value per pixel");
+    let spec = &resolved.spec;
+    let plan = OpticsPlan::new(resolved, camera, optics.as_ref());
+    // 555 nm-equivalent photons of each rendered channel, through the optics (linear, so each
+    // plane is blurred on its own).
+    let planes: Vec<Vec<f32>> = (0..3)
+        .map(|k| {
+            let values: Vec<f32> = radiance.iter().map(|px| px[k]).collect();
+            let mut photons = photon_image(camera, &values, spec.lens_transmittance, spec.exposure_s);
+            if !plan.is_identity() {
+                apply_plan(&plan, camera, &mut photons, optics.as_ref());
+            }
+            photons
+        })
+        .collect();
+    (0..w * h)
+        .map(|i| {
+            let row = &matrix.m[pattern.channel(i % w, i / w)];
+            let e: f64 = (0..3).map(|k| row[k] * f64::from(planes[k][i])).sum();
+            e.max(0.0) as f32
+        })
+        .collect()
+}
+
+/// The fixed ISP of a colour camera in one scenario (module docs).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ColourIsp {
+    /// The scenario's spectral matrix.
+    pub matrix: ChannelMatrix,
+    /// Black level, gains, demosaicing and colour matrix.
+    pub develop: Develop,
+}
+
+impl ColourIsp {
+    /// The ISP of `resolved` through `pattern` at `gain_db`, for a scenario whose light has the
+    /// spectral `matrix` and lights the scene to `target_lux`.
+    #[must_use]
+    pub fn for_scenario(
+        resolved: &ResolvedCamera,
+        pattern: CfaPattern,
+        matrix: ChannelMatrix,
+        gain_db: f64,
+        target_lux: f64,
+    ) -> ColourIsp {
+        let spec = &resolved.spec;
+        let model = electron_model(resolved, 0);
+        let grey_nit = MID_GREY_REFLECTANCE * target_lux / std::f64::consts::PI;
+        let grey_photons = photons_per_pixel(
+            grey_nit,
+            f64::from(spec.f_number),
+            f64::from(spec.lens_transmittance),
+            1.0,
+            spec.exposure_s,
+            f64::from(resolved.pixel_pitch_um),
+        );
+        let black = model.expected_mean_dn(0.0, 0.0, gain_db);
+        let range = model.max_dn() - black;
+        let white_balance = std::array::from_fn(|c| {
+            let signal =
+                model.expected_mean_dn(grey_photons * matrix.grey_response(c), spec.exposure_s, gain_db) - black;
+            (MID_GREY_REFLECTANCE * range / signal.max(f64::MIN_POSITIVE)) as f32
+        });
+        let colour_matrix = matrix.colour_correction().map(|row| row.map(|v| v as f32));
+        let develop = Develop {
+            black_level_dn: black as f32,
+            white_balance,
+            colour_matrix,
+            ..Develop::new(pattern, model.adc_bits)
+        };
+        ColourIsp { matrix, develop }
+    }
+
+    /// The 8-bit sRGB image (interleaved RGB) of a raw mosaic.
+    ///
+    /// # Panics
+    /// If `raw` is not a mosaic of this ISP's pattern.
+    #[must_use]
+    pub fn develop(&self, raw: &SensorImage) -> Vec<u8> {
+        assert_eq!(raw.cfa, Some(self.develop.pattern), "a mosaic of the ISP's pattern");
+        develop(&raw.dn, raw.width as usize, raw.height as usize, &self.develop)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::camera_spec::CameraSpec;
+    use crate::sensor::Catalog;
+    use crate::spectral::{Illuminant, NIGHT_CCT_K, QeCurves};
+    use glam::Vec3;
+
+    fn camera(noise: NoiseKind) -> ResolvedCamera {
+        let spec = CameraSpec { vignetting: false, max_width_px: Some(32), noise, ..CameraSpec::new("IMX174") };
+        spec.resolve(&Catalog::embedded()).unwrap()
+    }
+
+    /// A uniform grey at the scenario's mid-grey luminance develops to sRGB 118 in every channel,
+    /// by day and by night (the white balance removes the warm light's tint).
+    #[test]
+    fn a_lit_mid_grey_develops_to_neutral_118() {
+        let r = camera(NoiseKind::Off);
+        let cam = r.camera(Vec3::ZERO, 0.0);
+        let n = (cam.width_px * cam.height_px) as usize;
+        let curves = QeCurves::typical_bayer(r.sensor.quantum_efficiency);
+        for (illuminant, lux) in [(Illuminant::D65, 20.0), (Illuminant::Planck(NIGHT_CCT_K), 2.0)] {
+            let matrix = ChannelMatrix::new(&curves, illuminant, illuminant.tint());
+            let isp = ColourIsp::for_scenario(&r, CATALOG_PATTERN, matrix, 12.0, lux);
+            let y = (MID_GREY_REFLECTANCE * lux / std::f64::consts::PI) as f32;
+            let tinted = matrix.tint.map(|t| y * t as f32);
+            let raw = capture_mosaic(&r, &cam, &vec![tinted; n], None, &matrix, CATALOG_PATTERN, 12.0, (1, 1));
+            // Different channels see different signals on the mosaic ...
+            let (r_dn, g_dn) = (raw.dn[0], raw.dn[1]);
+            assert_ne!(r_dn, g_dn);
+            // ... and the ISP brings them back to one grey.
+            let out = isp.develop(&raw);
+            assert!(out.iter().all(|&v| v.abs_diff(118) <= 2), "{illuminant:?}: {:?}", &out[..12]);
+        }
+    }
+
+    #[test]
+    fn noise_lands_on_the_mosaic() {
+        let r = camera(NoiseKind::Emva);
+        let cam = r.camera(Vec3::ZERO, 0.0);
+        let n = (cam.width_px * cam.height_px) as usize;
+        let matrix =
+            ChannelMatrix::new(&QeCurves::typical_bayer(r.sensor.quantum_efficiency), Illuminant::D65, [1.0; 3]);
+        // Dim light at high gain, so the binned pixels' noise spans many DN.
+        let radiance = vec![[0.02f32; 3]; n];
+        let gain = 30.0;
+        let a = capture_mosaic(&r, &cam, &radiance, None, &matrix, CATALOG_PATTERN, gain, (1, 2));
+        let b = capture_mosaic(&r, &cam, &radiance, None, &matrix, CATALOG_PATTERN, gain, (1, 3));
+        assert_eq!(a, capture_mosaic(&r, &cam, &radiance, None, &matrix, CATALOG_PATTERN, gain, (1, 2)));
+        assert_ne!(a.dn, b.dn, "a new frame seed draws new noise");
+        // The mean of the green samples follows the expected mosaic.
+        let off = ResolvedCamera { spec: CameraSpec { noise: NoiseKind::Off, ..r.spec.clone() }, ..r.clone() };
+        let mean = capture_mosaic(&off, &cam, &radiance, None, &matrix, CATALOG_PATTERN, gain, (1, 2));
+        let w = cam.width_px as usize;
+        let greens = |img: &SensorImage| -> f64 {
+            let v: Vec<f64> =
+                (0..n).filter(|&i| CATALOG_PATTERN.channel(i % w, i / w) == 1).map(|i| f64::from(img.dn[i])).collect();
+            v.iter().sum::<f64>() / v.len() as f64
+        };
+        assert!((greens(&a) / greens(&mean) - 1.0).abs() < 0.02, "{} vs {}", greens(&a), greens(&mean));
+    }
+}
