@@ -113,25 +113,33 @@ fn mosaic_electrons(
     assert_eq!(radiance.len(), w * h, "radiance must have one value per pixel");
     let spec = &resolved.spec;
     let plan = OpticsPlan::new(resolved, camera, optics.as_ref());
+    let electrons_at = |i: usize, photons: [f32; 3]| -> f32 {
+        let row = &matrix.m[pattern.channel(i % w, i / w)];
+        let e: f64 = (0..3).map(|k| row[k] * f64::from(photons[k])).sum();
+        e.max(0.0) as f32
+    };
+    if plan.is_identity() {
+        // The camera equation is linear in radiance: one photons-per-nit factor per pixel
+        // (its fall-off) serves the three rendered channels.
+        let per_nit = photon_image(camera, &vec![1.0; w * h], spec.lens_transmittance, spec.exposure_s);
+        return radiance
+            .iter()
+            .zip(&per_nit)
+            .enumerate()
+            .map(|(i, (px, &f))| electrons_at(i, px.map(|v| v.max(0.0) * f)))
+            .collect();
+    }
     // 555 nm-equivalent photons of each rendered channel, through the optics (linear, so each
     // plane is blurred on its own).
     let planes: Vec<Vec<f32>> = (0..3)
         .map(|k| {
             let values: Vec<f32> = radiance.iter().map(|px| px[k]).collect();
             let mut photons = photon_image(camera, &values, spec.lens_transmittance, spec.exposure_s);
-            if !plan.is_identity() {
-                apply_plan(&plan, camera, &mut photons, optics.as_ref());
-            }
+            apply_plan(&plan, camera, &mut photons, optics.as_ref());
             photons
         })
         .collect();
-    (0..w * h)
-        .map(|i| {
-            let row = &matrix.m[pattern.channel(i % w, i / w)];
-            let e: f64 = (0..3).map(|k| row[k] * f64::from(planes[k][i])).sum();
-            e.max(0.0) as f32
-        })
-        .collect()
+    (0..w * h).map(|i| electrons_at(i, [planes[0][i], planes[1][i], planes[2][i]])).collect()
 }
 
 /// The fixed ISP of a colour camera in one scenario (module docs).

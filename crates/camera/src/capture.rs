@@ -9,6 +9,11 @@
 //!                              ─► sensor noise ─► DN (SensorImage) ─► ISP ─► 8-bit image
 //! ```
 //!
+//! A colour sensor ([`bayer::cfa_of`]) takes the Bayer branch: electrons per CFA channel through
+//! the scenario's spectral matrix (its illuminant, [`illuminant`], replacing the tint the
+//! renderer gave its lights, [`rendered_tint`]), noise on the mosaic, and the colour ISP to
+//! sRGB ([`Scenario::image_8bit`]); perception sees that image's luma ([`PerceptionImage`]).
+//!
 //! A [`Capture`] is built once per house and camera: it builds the BVH, measures how far each
 //! light group must be scaled to light the table-height plane at its scenario's target (20 lux
 //! by day, 2 lux by night, [`ScenarioLight`]), and sets the fixed ISP of each scenario. Each
@@ -163,6 +168,28 @@ pub struct Image8 {
     /// 1 (grey) or 3 (sRGB, interleaved).
     pub channels: u8,
     pub bytes: Vec<u8>,
+}
+
+/// One scenario's image as perception sees it: the grey image ORB and the built-in detector
+/// read, and for a colour camera the sRGB image it came from (interleaved RGB), which plug-in
+/// detectors are given.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct PerceptionImage {
+    pub grey: Vec<u8>,
+    pub rgb: Option<Vec<u8>>,
+}
+
+/// The luma of interleaved 8-bit sRGB, as OpenCV's `cvtColor(RGB2GRAY)` computes it (Rec. 601
+/// weights 0.299, 0.587, 0.114 in 14-bit fixed point, rounded): what a robot's vision stack
+/// hands ORB from a colour camera.
+#[must_use]
+pub fn luma_of_srgb(rgb: &[u8]) -> Vec<u8> {
+    const R: u32 = 4899;
+    const G: u32 = 9617;
+    const B: u32 = 1868;
+    rgb.chunks_exact(3)
+        .map(|p| ((u32::from(p[0]) * R + u32::from(p[1]) * G + u32::from(p[2]) * B + (1 << 13)) >> 14) as u8)
+        .collect()
 }
 
 impl Scenario {
@@ -352,9 +379,13 @@ impl<'a> Capture<'a> {
         self.scenarios.iter().map(|scenario| self.sensor_image(frame, pinhole, pose, scenario, key)).collect()
     }
 
-    /// The 8-bit images of every scenario of `frame` under `rule`, the bytes of
-    /// [`Capture::sensor_image`] through [`isp::to_8bit`], by the fused row path of
-    /// [`isp::capture_8bit`] where it applies.
+    /// What perception sees of every scenario of `frame` under `rule` ([`PerceptionImage`]).
+    ///
+    /// A grey (monochrome or affine-path) camera: the bytes of [`Capture::sensor_image`]
+    /// through [`isp::to_8bit`], by the fused row path of [`isp::capture_8bit`] where it
+    /// applies. A colour camera under [`OutputRule::Isp`]: its mosaic developed to sRGB
+    /// ([`Scenario::image_8bit`]), and that image's luma ([`luma_of_srgb`]); under
+    /// [`OutputRule::TopBits`], the top 8 bits of the raw mosaic.
     #[must_use]
     pub fn images_8bit(
         &self,
@@ -363,7 +394,25 @@ impl<'a> Capture<'a> {
         pose: &Pose,
         key: u64,
         rule: OutputRule,
-    ) -> Vec<Vec<u8>> {
+    ) -> Vec<PerceptionImage> {
+        if self.scenarios.iter().any(|s| s.colour.is_some()) {
+            return self
+                .scenarios
+                .iter()
+                .map(|s| {
+                    let raw = self.sensor_image(frame, pinhole, pose, s, key);
+                    match rule {
+                        OutputRule::Isp => {
+                            let rgb = s.image_8bit(&raw).bytes;
+                            PerceptionImage { grey: luma_of_srgb(&rgb), rgb: Some(rgb) }
+                        }
+                        OutputRule::TopBits => {
+                            PerceptionImage { grey: isp::to_8bit(&raw, OutputRule::TopBits, &s.isp), rgb: None }
+                        }
+                    }
+                })
+                .collect();
+        }
         let seeds: Vec<u64> = self.scenarios.iter().map(|s| self.frame_seed(key, s)).collect();
         let scenarios: Vec<isp::Scenario<'_>> = self
             .scenarios
@@ -388,5 +437,8 @@ impl<'a> Capture<'a> {
             rule,
             &scenarios,
         )
+        .into_iter()
+        .map(|grey| PerceptionImage { grey, rgb: None })
+        .collect()
     }
 }

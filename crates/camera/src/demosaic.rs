@@ -138,15 +138,19 @@ fn mirror(i: isize, n: usize) -> usize {
 
 impl Mosaic<'_> {
     /// The sample at (x + dx, y + dy), mirrored at the borders.
+    #[inline]
     fn at(&self, x: usize, y: usize, dx: isize, dy: isize) -> f32 {
-        let xx = mirror(x as isize + dx, self.width);
-        let yy = mirror(y as isize + dy, self.height);
-        self.samples[yy * self.width + xx]
+        let (xx, yy) = (x as isize + dx, y as isize + dy);
+        // Inside the frame (nearly every tap) no mirroring, which divides, is needed.
+        let inside = |v: isize, n: usize| if (0..n as isize).contains(&v) { v as usize } else { mirror(v, n) };
+        self.samples[inside(yy, self.height) * self.width + inside(xx, self.width)]
     }
 
-    /// The channel sampled at (x + dx, y + dy), by the CFA's phase (mirroring keeps it).
+    /// The channel sampled at (x + dx, y + dy), by the CFA's phase (mirroring keeps it; `& 1`
+    /// is the parity of negative offsets too, in two's complement).
+    #[inline]
     fn channel(&self, x: usize, y: usize, dx: isize, dy: isize) -> usize {
-        self.pattern.channel((x as isize + dx).rem_euclid(2) as usize, (y as isize + dy).rem_euclid(2) as usize)
+        self.pattern.channel(((x as isize + dx) & 1) as usize, ((y as isize + dy) & 1) as usize)
     }
 }
 
@@ -159,7 +163,13 @@ impl Mosaic<'_> {
 pub fn demosaic(mosaic: &Mosaic<'_>, method: Demosaic) -> Vec<[f32; 3]> {
     assert_eq!(mosaic.samples.len(), mosaic.width * mosaic.height, "mosaic size");
     match method {
-        Demosaic::Bilinear => map_pixels(mosaic, bilinear_pixel),
+        Demosaic::Bilinear => {
+            let near = Neighbourhoods::new(mosaic);
+            (0..mosaic.height)
+                .flat_map(|y| (0..mosaic.width).map(move |x| (x, y)))
+                .map(|(x, y)| bilinear_pixel(mosaic, &near, x, y))
+                .collect()
+        }
         Demosaic::Malvar => map_pixels(mosaic, malvar_pixel),
         Demosaic::Directional => directional(mosaic),
     }
@@ -169,37 +179,61 @@ fn map_pixels(mosaic: &Mosaic<'_>, pixel: fn(&Mosaic<'_>, usize, usize) -> [f32;
     (0..mosaic.height).flat_map(|y| (0..mosaic.width).map(move |x| pixel(mosaic, x, y))).collect()
 }
 
-/// The weighted mean of the samples of `channel` in the 3x3 neighbourhood of (x, y) of
-/// `values` (weights 4 / 2 / 1), a plane laid out as the mosaic.
-fn neighbourhood_mean(
-    mosaic: &Mosaic<'_>,
-    x: usize,
-    y: usize,
-    channel: usize,
-    value: impl Fn(isize, isize) -> f32,
-) -> f32 {
-    let (mut sum, mut weight) = (0.0, 0.0);
-    for dy in -1..=1isize {
-        for dx in -1..=1isize {
-            if mosaic.channel(x, y, dx, dy) == channel {
-                let w = ((2 - dx.abs()) * (2 - dy.abs())) as f32;
-                sum += w * value(dx, dy);
-                weight += w;
-            }
-        }
-    }
-    sum / weight
+/// The taps (dx, dy, weight) of one colour in the 3x3 neighbourhood of a pixel, in row order,
+/// and their total weight (weights 4 / 2 / 1 for centre / edge / corner).
+#[derive(Clone, Debug, Default)]
+struct Taps3 {
+    taps: Vec<(isize, isize, f32)>,
+    weight: f32,
 }
 
-fn bilinear_pixel(mosaic: &Mosaic<'_>, x: usize, y: usize) -> [f32; 3] {
+/// [`Taps3`] of each colour at each of the four CFA phases, found once per image so the
+/// per-pixel loop visits only the taps it uses.
+struct Neighbourhoods {
+    /// Indexed `[y % 2][x % 2][channel]`.
+    by_phase: [[[Taps3; 3]; 2]; 2],
+}
+
+impl Neighbourhoods {
+    fn new(mosaic: &Mosaic<'_>) -> Neighbourhoods {
+        let by_phase = std::array::from_fn(|py| {
+            std::array::from_fn(|px| {
+                std::array::from_fn(|channel| {
+                    let mut t = Taps3::default();
+                    for dy in -1..=1isize {
+                        for dx in -1..=1isize {
+                            if mosaic.channel(px, py, dx, dy) == channel {
+                                let w = ((2 - dx.abs()) * (2 - dy.abs())) as f32;
+                                t.taps.push((dx, dy, w));
+                                t.weight += w;
+                            }
+                        }
+                    }
+                    t
+                })
+            })
+        });
+        Neighbourhoods { by_phase }
+    }
+
+    /// The weighted mean of the samples of `channel` in the 3x3 neighbourhood of (x, y) of
+    /// `value(dx, dy)`, a plane laid out as the mosaic.
+    #[inline]
+    fn mean(&self, x: usize, y: usize, channel: usize, value: impl Fn(isize, isize) -> f32) -> f32 {
+        let t = &self.by_phase[y % 2][x % 2][channel];
+        let mut sum = 0.0;
+        for &(dx, dy, w) in &t.taps {
+            sum += w * value(dx, dy);
+        }
+        sum / t.weight
+    }
+}
+
+fn bilinear_pixel(mosaic: &Mosaic<'_>, near: &Neighbourhoods, x: usize, y: usize) -> [f32; 3] {
     let own = mosaic.channel(x, y, 0, 0);
     let mut rgb = [0.0; 3];
     for (c, out) in rgb.iter_mut().enumerate() {
-        *out = if c == own {
-            mosaic.at(x, y, 0, 0)
-        } else {
-            neighbourhood_mean(mosaic, x, y, c, |dx, dy| mosaic.at(x, y, dx, dy))
-        };
+        *out = if c == own { mosaic.at(x, y, 0, 0) } else { near.mean(x, y, c, |dx, dy| mosaic.at(x, y, dx, dy)) };
     }
     rgb
 }
@@ -312,6 +346,7 @@ fn directional(mosaic: &Mosaic<'_>) -> Vec<[f32; 3]> {
     // Colour differences (sample - green) at the red and blue pixels; 0 elsewhere (unused).
     let difference: Vec<f32> = mosaic.samples.iter().zip(&green).map(|(&s, &g)| s - g).collect();
     let plane = Mosaic { samples: &difference, ..*mosaic };
+    let near = Neighbourhoods::new(mosaic);
     (0..h)
         .flat_map(|y| (0..w).map(move |x| (x, y)))
         .map(|(x, y)| {
@@ -322,7 +357,7 @@ fn directional(mosaic: &Mosaic<'_>) -> Vec<[f32; 3]> {
                 rgb[c] = if c == own {
                     mosaic.at(x, y, 0, 0)
                 } else {
-                    g + neighbourhood_mean(mosaic, x, y, c, |dx, dy| plane.at(x, y, dx, dy))
+                    g + near.mean(x, y, c, |dx, dy| plane.at(x, y, dx, dy))
                 };
             }
             rgb

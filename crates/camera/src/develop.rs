@@ -82,6 +82,39 @@ pub fn srgb_encode(linear: f32) -> f32 {
     if linear <= 0.003_130_8 { 12.92 * linear } else { 1.055 * linear.powf(1.0 / 2.4) - 0.055 }
 }
 
+/// `round(255 srgb_encode(x))` for a linear `x` in 0..1 without a power function per value: the
+/// smallest `x` that reaches each byte, found once by bisection over the f32 values with the
+/// same arithmetic, so the bytes are exactly those of the direct formula (which is monotone).
+struct SrgbBytes {
+    /// `first[b]`: the smallest f32 whose byte is at least `b + 1`.
+    first: [f32; 255],
+}
+
+impl SrgbBytes {
+    fn get() -> &'static SrgbBytes {
+        static TABLE: std::sync::OnceLock<SrgbBytes> = std::sync::OnceLock::new();
+        TABLE.get_or_init(|| {
+            let direct = |x: f32| (srgb_encode(x) * 255.0).round() as u8;
+            let first = std::array::from_fn(|b| {
+                // Non-negative f32 values are ordered as their bit patterns.
+                let (mut lo, mut hi) = (0u32, 1.0f32.to_bits());
+                while lo < hi {
+                    let mid = lo + (hi - lo) / 2;
+                    if usize::from(direct(f32::from_bits(mid))) > b { hi = mid } else { lo = mid + 1 }
+                }
+                f32::from_bits(lo)
+            });
+            SrgbBytes { first }
+        })
+    }
+
+    /// The byte of a linear value in 0..1.
+    #[inline]
+    fn byte(&self, x: f32) -> u8 {
+        self.first.partition_point(|&t| t <= x) as u8
+    }
+}
+
 /// Develops the `width * height` raw values `raw` with `settings` into interleaved 8-bit RGB.
 ///
 /// # Panics
@@ -110,10 +143,9 @@ pub fn develop(raw: &[u16], width: usize, height: usize, settings: &Develop) -> 
         return rgb.iter().flatten().map(|&v| to_8bit(v)).collect();
     }
     let m = &settings.colour_matrix;
+    let curve = SrgbBytes::get();
     rgb.iter()
-        .flat_map(|p| {
-            m.map(|row| to_8bit(srgb_encode((row[0] * p[0] + row[1] * p[1] + row[2] * p[2]).clamp(0.0, 1.0))))
-        })
+        .flat_map(|p| m.map(|row| curve.byte((row[0] * p[0] + row[1] * p[1] + row[2] * p[2]).clamp(0.0, 1.0))))
         .collect()
 }
 
@@ -150,6 +182,21 @@ mod tests {
         let out = develop(&raw, w, h, &swap);
         let encode = |v: f32| (srgb_encode(v / 4031.0) * 255.0).round() as u8;
         assert_eq!(&out[..3], &[encode(500.0), encode(2000.0), encode(1000.0)]);
+    }
+
+    #[test]
+    fn the_curve_table_gives_the_bytes_of_the_formula() {
+        let table = SrgbBytes::get();
+        let direct = |x: f32| (srgb_encode(x) * 255.0).round() as u8;
+        for i in 0..=200_000u32 {
+            let x = i as f32 / 200_000.0;
+            assert_eq!(table.byte(x), direct(x), "{x}");
+        }
+        for &b in &table.first {
+            assert_eq!(table.byte(b), direct(b));
+            let below = f32::from_bits(b.to_bits() - 1);
+            assert_eq!(table.byte(below), direct(below));
+        }
     }
 
     #[test]

@@ -76,12 +76,12 @@ use serde::Serialize;
 
 use crate::progress::Progress;
 use scene_gen_camera::camera_spec::{CameraSpec, ResolvedCamera, SpecError};
-use scene_gen_camera::capture::{Capture, CaptureError, scenario_name};
+use scene_gen_camera::capture::{Capture, CaptureError, PerceptionImage, scenario_name};
 use scene_gen_camera::isp::OutputRule;
 use scene_gen_camera::sensor::Catalog;
 use scene_gen_perception::detection::coco_eval::{self, CocoCategory, CocoGroundTruth, CocoImage, DetectionRecord};
 use scene_gen_perception::detection::ground_truth::to_annotations;
-use scene_gen_perception::detection::output_noise::output_noise_by_level;
+use scene_gen_perception::detection::output_noise::{colour_output_noise_by_level, output_noise_by_level};
 use scene_gen_perception::detection::plugin::{self, PluginError, PluginRequest};
 use scene_gen_perception::detection::thresholds::{self, Crossing, FrameVisibility, ThresholdConfig};
 use scene_gen_perception::detection::{
@@ -555,8 +555,8 @@ struct PoseResult {
     /// Threshold instance id -> visible pixels.
     thresholds: Vec<(u32, u32)>,
     time_s: f64,
-    /// Per scenario: 8-bit image (anchors and successors only).
-    grey: Vec<Vec<u8>>,
+    /// Per scenario: what perception sees (anchors and successors only).
+    images: Vec<PerceptionImage>,
     /// Ground truth and per-scenario built-in detections (anchors only).
     gt: Option<Vec<GtObject>>,
     detections: Vec<Vec<Detection>>,
@@ -729,12 +729,13 @@ fn render_pose(
         (role == Role::Anchor).then(|| frame_ground_truth(&frame, house.scene, &camera, &GroundTruthConfig::default()));
     out.times[2] += secs(t1);
     let t1 = Instant::now();
-    let greys = house.capture.images_8bit(&frame, &camera, &pose, i as u64, config.output);
+    let images = house.capture.images_8bit(&frame, &camera, &pose, i as u64, config.output);
     out.times[1] += secs(t1);
     if let Some(objects) = &gt {
         let t1 = Instant::now();
         let detector = DetectabilityModel::default();
-        for (s, grey) in greys.iter().enumerate() {
+        for (s, image) in images.iter().enumerate() {
+            let grey = &image.grey;
             out.usable.push(image_usable(grey) && objects.iter().any(|o| o.counted));
             if config.detector.is_none() {
                 let image: Vec<f32> = grey.iter().map(|&v| f32::from(v)).collect();
@@ -755,7 +756,7 @@ fn render_pose(
         }
         out.times[2] += secs(t1);
     }
-    out.grey = greys;
+    out.images = images;
     out.gt = gt;
     if let Ok(mut frames) = spare.lock() {
         frames.push(frame);
@@ -778,8 +779,8 @@ fn orb_pairs(
     jobs.par_iter()
         .map(|&(s, a)| {
             let t0 = Instant::now();
-            let ga = &by_pose[&a].grey[s];
-            let gb = &by_pose[&(a + 1)].grey[s];
+            let ga = &by_pose[&a].images[s].grey;
+            let gb = &by_pose[&(a + 1)].images[s].grey;
             let (ka, da) = orb.detect_and_compute((ga.as_slice(), w as usize, h as usize)).unwrap_or_default();
             let (kb, db) = orb.detect_and_compute((gb.as_slice(), w as usize, h as usize)).unwrap_or_default();
             let ransac = FundamentalRansac {
@@ -855,7 +856,12 @@ impl Tally {
         let noise_tables = capture
             .scenarios()
             .iter()
-            .map(|s| output_noise_by_level(resolved, s.gain_db, config.output, &s.isp))
+            .map(|s| match (&s.colour, config.output) {
+                (Some(colour), OutputRule::Isp) => {
+                    Some(colour_output_noise_by_level(resolved, s.gain_db, colour, f64::from(s.light.target_lux)))
+                }
+                _ => output_noise_by_level(resolved, s.gain_db, config.output, &s.isp),
+            })
             .collect();
         let threshold_ids = scene.thresholds.iter().map(|t| t.instance_id).collect();
         let house = House { seed, scene: &scene, walk: &walk, capture: &capture, noise_tables, threshold_ids };
@@ -937,9 +943,12 @@ impl Tally {
                 if let Some(dir) = &self.scratch {
                     let t0 = Instant::now();
                     let path = dir.0.join(&file_name);
-                    let img = image::GrayImage::from_raw(w, h, p.grey[s].clone())
-                        .ok_or_else(|| io_error(&path, &"image size mismatch"))?;
-                    img.save(&path).map_err(|e| io_error(&path, &e))?;
+                    // A colour camera's plug-in detector sees its sRGB image, a grey one's the grey.
+                    let saved = match &p.images[s].rgb {
+                        Some(rgb) => image::RgbImage::from_raw(w, h, rgb.clone()).map(|img| img.save(&path)),
+                        None => image::GrayImage::from_raw(w, h, p.images[s].grey.clone()).map(|img| img.save(&path)),
+                    };
+                    saved.ok_or_else(|| io_error(&path, &"image size mismatch"))?.map_err(|e| io_error(&path, &e))?;
                     self.requests
                         .push((s, PluginRequest { image_id, path: path.display().to_string(), width: w, height: h }));
                     self.timing.detection += secs(t0);

@@ -31,6 +31,9 @@
 //! {"image_id": 3, "path": "/abs/path/frame_0003.png", "width": 640, "height": 480}
 //! ```
 //!
+//! The image at `path` is the camera's 8-bit image: sRGB for a colour sensor, grey for a
+//! monochrome one (or under the `top_bits` output rule).
+//!
 //! Responses (bbox is `[x, y, width, height]` in pixels from the top-left corner; category ids
 //! are scene-gen's COCO ids, 1..=10 objects, 11 threshold; scores in [0, 1]):
 //!

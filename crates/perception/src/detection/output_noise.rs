@@ -36,9 +36,23 @@
 //!
 //! The affine colour path has its own noise model on 8-bit values; it gets no table and the
 //! detector measures the noise on the image ([`super::detectability::NoiseSource::Measured`]).
+//!
+//! # Colour cameras
+//!
+//! A colour camera's grey image is the luma of its developed sRGB image: its noise has passed
+//! through white balance, demosaicing (which averages neighbours) and the colour matrix (which
+//! mixes channels and, off its diagonal, amplifies noise). No closed form follows it through
+//! all of that, so [`colour_output_noise_by_level`] measures it: for each level, a flat grey
+//! patch that develops to that level is captured with the camera's noise and developed, and the
+//! standard deviation of its luma is taken (a fixed seed per level, so the table is the same on
+//! every run).
+
+use rayon::prelude::*;
 
 use super::detectability::QUANTISATION_STD_DN;
+use scene_gen_camera::bayer::{ColourIsp, capture_mosaic};
 use scene_gen_camera::camera_spec::{NoiseKind, ResolvedCamera};
+use scene_gen_camera::capture::luma_of_srgb;
 use scene_gen_camera::isp::{Isp, MID_GREY_REFLECTANCE, OutputRule, srgb_decode};
 use scene_gen_camera::sensor::noise::SensorModel;
 
@@ -143,6 +157,68 @@ pub fn output_noise_by_level(resolved: &ResolvedCamera, gain_db: f64, rule: Outp
         })
         .collect();
     Some(table)
+}
+
+/// Side of the flat patch each sampled level of [`colour_output_noise_by_level`] is measured
+/// on, px (4096 pixels).
+const PATCH_PX: u32 = 64;
+
+/// Levels between the ones [`colour_output_noise_by_level`] measures (the rest are
+/// interpolated linearly; the noise changes slowly with level).
+const LEVEL_STEP: usize = 8;
+
+/// Standard deviation of a colour camera's 8-bit luma at each level (module docs, "Colour
+/// cameras"), for `resolved` at `gain_db` with the scenario's colour ISP, whose light reaches
+/// `target_lux` on the reference plane.
+#[must_use]
+pub fn colour_output_noise_by_level(
+    resolved: &ResolvedCamera,
+    gain_db: f64,
+    colour: &ColourIsp,
+    target_lux: f64,
+) -> Vec<f64> {
+    // A small, flat-fielded copy of the camera: same pixels, lens and sensor, no fall-off.
+    let mut patch = resolved.clone();
+    patch.width_px = PATCH_PX;
+    patch.height_px = PATCH_PX;
+    patch.spec.vignetting = false;
+    let camera = patch.camera(glam::Vec3::ZERO, 0.0);
+    let n = (PATCH_PX * PATCH_PX) as usize;
+    let measure = |v: usize| -> f64 {
+        // The luminance of a grey that the ISP maps to level v: the 18 % grey of the scenario's
+        // light maps to linear 0.18.
+        let linear = srgb_decode(v as f64 / 255.0);
+        let nit = (linear * target_lux / std::f64::consts::PI) as f32;
+        let radiance = vec![colour.matrix.tint.map(|t| nit * t as f32); n];
+        let seeds = (0, scene_gen_core::rng::fnv1a64(format!("output-noise/{v}").as_bytes()));
+        let pattern = colour.develop.pattern;
+        let raw = capture_mosaic(&patch, &camera, &radiance, None, &colour.matrix, pattern, gain_db, seeds);
+        let luma = luma_of_srgb(&colour.develop(&raw));
+        let mean = luma.iter().map(|&y| f64::from(y)).sum::<f64>() / n as f64;
+        let var = luma.iter().map(|&y| (f64::from(y) - mean).powi(2)).sum::<f64>() / n as f64;
+        var.sqrt().max(QUANTISATION_STD_DN)
+    };
+    let sampled: Vec<usize> = (0..LEVELS).step_by(LEVEL_STEP).chain([LEVELS - 1]).collect();
+    let raw: Vec<f64> = sampled.par_iter().map(|&v| measure(v)).collect();
+    // The luma is whole numbers, so where the noise is near 1 DN its spread depends on where the
+    // mean falls between two of them; a [1, 2, 1] average over neighbouring samples keeps that
+    // rounding jitter out of the table.
+    let measured: Vec<f64> = (0..raw.len())
+        .map(|j| {
+            let (a, b) = (raw[j.saturating_sub(1)], raw[(j + 1).min(raw.len() - 1)]);
+            (a + 2.0 * raw[j] + b) / 4.0
+        })
+        .collect();
+    (0..LEVELS)
+        .map(|v| {
+            let j = sampled.partition_point(|&s| s <= v) - 1;
+            if sampled[j] == v || j + 1 == sampled.len() {
+                return measured[j];
+            }
+            let t = (v - sampled[j]) as f64 / (sampled[j + 1] - sampled[j]) as f64;
+            measured[j] * (1.0 - t) + measured[j + 1] * t
+        })
+        .collect()
 }
 
 #[cfg(test)]
