@@ -5,7 +5,7 @@ use std::process::Command;
 
 use proptest::prelude::*;
 use scene_gen::sensor::noise::{self, Effects, gain_factor};
-use scene_gen::sensor::{AffineNoise, Catalog, Colour, SensorModel, Shutter};
+use scene_gen::sensor::{AffineNoise, Catalog, Colour, FigureKind, NOISE_FIELDS, SensorModel, Shutter};
 
 fn temp_dir(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("scene-gen-sensor-{name}-{}", std::process::id()));
@@ -64,6 +64,53 @@ fn every_entry_is_consistent_sourced_and_sorted_by_area() {
     assert!(areas.windows(2).all(|w| w[0] <= w[1]));
     assert_eq!(c.sensors()[0].model, "PYTHON300");
     assert_eq!(c.sensors().last().unwrap().model, "AM41");
+}
+
+/// Every noise figure says where it comes from; the derived ones follow from the EMVA 1288
+/// figures their formula quotes.
+#[test]
+fn every_noise_figure_has_its_provenance() {
+    let c = Catalog::embedded();
+    let mut sourced = 0;
+    for s in c.sensors() {
+        let provenance = s.provenance();
+        assert_eq!(provenance.iter().map(|p| p.field).collect::<Vec<_>>(), NOISE_FIELDS, "{}", s.model);
+        for p in &provenance {
+            match p.kind {
+                FigureKind::Estimated => assert!(p.how.contains("estimate"), "{} {}: {}", s.model, p.field, p.how),
+                _ => assert!(p.source.starts_with("https://") && !p.camera.is_empty(), "{} {}", s.model, p.field),
+            }
+            if p.kind == FigureKind::Derived {
+                // "... SNRmax = 40.2 dB ..." or "... DR = 71.4 dB ...": recompute the value.
+                let quoted = |key: &str| -> f64 {
+                    let rest = &p.how[p.how.find(key).unwrap() + key.len()..];
+                    rest.split_whitespace().next().unwrap().parse().unwrap()
+                };
+                let saturation = 10f64.powf(quoted("SNRmax = ") / 10.0);
+                let expected =
+                    if p.field == "full_well_e" { saturation } else { saturation / 10f64.powf(quoted("DR = ") / 20.0) };
+                assert!((p.value / expected - 1.0).abs() < 0.01, "{} {}: {} vs {expected}", s.model, p.field, p.value);
+            }
+        }
+        let measured = |field: &str| {
+            provenance.iter().any(|p| p.field == field && matches!(p.kind, FigureKind::Measured | FigureKind::Derived))
+        };
+        sourced += usize::from(measured("full_well_e") && measured("read_noise_e"));
+    }
+    assert!(sourced >= 7, "{sourced} sensors with measured or derived full well and read noise");
+}
+
+#[test]
+fn a_figure_for_an_unknown_field_is_refused() {
+    let dir = temp_dir("figure");
+    let path = dir.join("figure.toml");
+    let bad = format!("{EXTRA}\n[[sensor.figure]]\nfield = \"gain\"\nkind = \"measured\"\nsource = \"https://x\"\n");
+    std::fs::write(&path, &bad).unwrap();
+    let err = Catalog::embedded().load_extra(&path).unwrap_err().to_string();
+    assert!(err.contains("sensor TINY1: figure 1: field 'gain'"), "{err}");
+    let out = bin().args(["sensors", "--catalog"]).arg(&path).output().unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(out.stdout.is_empty());
 }
 
 const EXTRA: &str = r#"
@@ -144,6 +191,10 @@ fn sensors_command_prints_a_table_or_json() {
     let arr = v.as_array().unwrap();
     assert_eq!(arr.len(), 43);
     assert!(arr.iter().any(|s| s["model"] == "IMX174" && s["full_well_e"] == 32691.0));
+    let imx250 = arr.iter().find(|s| s["model"] == "IMX250").unwrap();
+    let kinds: Vec<&str> =
+        imx250["provenance"].as_array().unwrap().iter().map(|p| p["kind"].as_str().unwrap()).collect();
+    assert_eq!(kinds, ["estimated", "derived", "derived", "estimated"]);
     let out = bin().arg("sensors").output().unwrap();
     let text = String::from_utf8(out.stdout).unwrap();
     assert!(text.lines().count() >= 44 && text.contains("MT9V022") && text.contains("752x480"));

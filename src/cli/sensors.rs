@@ -4,7 +4,7 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use clap::Args;
-use scene_gen::sensor::{Catalog, Colour, Shutter};
+use scene_gen::sensor::{Catalog, Colour, FigureKind, Sensor, Shutter};
 
 use super::{CliError, bad_input, failure};
 
@@ -26,13 +26,13 @@ pub fn run(args: &SensorsArgs) -> Result<(), CliError> {
         catalog.load_extra(path).map_err(bad_input)?;
     }
     if args.json {
-        let text = serde_json::to_string_pretty(catalog.sensors()).map_err(failure)?;
+        let text = serde_json::to_string_pretty(&catalog.records()).map_err(failure)?;
         emit(&format!("{text}\n"));
         return Ok(());
     }
     let _ = writeln!(
         out,
-        "{:<11} {:<8} {:>11} {:>6} {:>15} {:>7} {:<6} {:>4} {:>5} {:>8} {:>5} {:>7}  est",
+        "{:<11} {:<8} {:>11} {:>6} {:>15} {:>7} {:<6} {:>4} {:>5} {:>8} {:>5} {:>7}  QE FW RN DC",
         "maker", "model", "resolution", "px_um", "area_mm", "mm2", "shutr", "bits", "QE", "FW_e", "RN_e", "dark_e/s"
     );
     for s in catalog.sensors() {
@@ -52,17 +52,44 @@ pub fn run(args: &SensorsArgs) -> Result<(), CliError> {
             s.full_well_e,
             s.read_noise_e,
             s.dark_current_e_per_s,
-            if s.estimated { "yes" } else { "no" },
+            provenance_letters(s),
             colour
         );
     }
     let _ = writeln!(
         out,
-        "{} sensors, sorted by active area; noise columns marked est=yes are partly estimated (see --json source)",
-        catalog.len()
+        "{} sensors, sorted by active area. Noise figures: m measured, d derived from measured figures, s data \
+         sheet, e estimated ({} of them with measured or derived full well and read noise; --json gives each \
+         figure's camera, source and formula)",
+        catalog.len(),
+        catalog.sensors().iter().filter(|s| measured_noise(s)).count()
     );
     emit(&out);
     Ok(())
+}
+
+/// One letter per noise field (QE, full well, read noise, dark current): how it was obtained.
+fn provenance_letters(sensor: &Sensor) -> String {
+    let letters: Vec<&str> = sensor
+        .provenance()
+        .iter()
+        .map(|p| match p.kind {
+            FigureKind::Measured => "m",
+            FigureKind::Derived => "d",
+            FigureKind::Datasheet => "s",
+            FigureKind::Estimated => "e",
+        })
+        .collect();
+    letters.join("  ")
+}
+
+/// Whether the sensor's full well and read noise are measured or derived from measurements.
+fn measured_noise(sensor: &Sensor) -> bool {
+    sensor
+        .provenance()
+        .iter()
+        .filter(|p| p.field == "full_well_e" || p.field == "read_noise_e")
+        .all(|p| matches!(p.kind, FigureKind::Measured | FigureKind::Derived))
 }
 
 /// Writes command output to stdout; a closed pipe (`| head`) is not an error.

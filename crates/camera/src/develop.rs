@@ -85,17 +85,29 @@ pub fn srgb_encode(linear: f32) -> f32 {
 /// `round(255 srgb_encode(x))` for a linear `x` in 0..1 without a power function per value: the
 /// smallest `x` that reaches each byte, found once by bisection over the f32 values with the
 /// same arithmetic, so the bytes are exactly those of the direct formula (which is monotone).
+/// A value is looked up in a table of `BINS` equal bins of 0..1 (the byte at the bin's start),
+/// then moved up one byte if it has passed the next byte's threshold: bins are narrower than
+/// the distance between thresholds (the curve's steepest slope, 12.92 x 255 bytes per unit,
+/// puts thresholds at least 1 / 3295 apart), so one comparison settles it.
 struct SrgbBytes {
-    /// `first[b]`: the smallest f32 whose byte is at least `b + 1`.
-    first: [f32; 255],
+    /// `first[b]`: the smallest f32 whose byte is at least `b + 1`; `first[255]` is above 1.
+    first: [f32; 256],
+    /// The byte at the start of each bin.
+    at_bin: Vec<u8>,
 }
+
+/// Bins of [`SrgbBytes::at_bin`].
+const BINS: usize = 1 << 14;
 
 impl SrgbBytes {
     fn get() -> &'static SrgbBytes {
         static TABLE: std::sync::OnceLock<SrgbBytes> = std::sync::OnceLock::new();
         TABLE.get_or_init(|| {
             let direct = |x: f32| (srgb_encode(x) * 255.0).round() as u8;
-            let first = std::array::from_fn(|b| {
+            let first: [f32; 256] = std::array::from_fn(|b| {
+                if b == 255 {
+                    return f32::INFINITY;
+                }
                 // Non-negative f32 values are ordered as their bit patterns.
                 let (mut lo, mut hi) = (0u32, 1.0f32.to_bits());
                 while lo < hi {
@@ -104,14 +116,16 @@ impl SrgbBytes {
                 }
                 f32::from_bits(lo)
             });
-            SrgbBytes { first }
+            let at_bin = (0..=BINS).map(|i| first.partition_point(|&t| t <= i as f32 / BINS as f32) as u8).collect();
+            SrgbBytes { first, at_bin }
         })
     }
 
     /// The byte of a linear value in 0..1.
     #[inline]
     fn byte(&self, x: f32) -> u8 {
-        self.first.partition_point(|&t| t <= x) as u8
+        let b = self.at_bin[(x * BINS as f32) as usize];
+        b + u8::from(x >= self.first[usize::from(b)])
     }
 }
 
@@ -192,7 +206,7 @@ mod tests {
             let x = i as f32 / 200_000.0;
             assert_eq!(table.byte(x), direct(x), "{x}");
         }
-        for &b in &table.first {
+        for &b in &table.first[..255] {
             assert_eq!(table.byte(b), direct(b));
             let below = f32::from_bits(b.to_bits() - 1);
             assert_eq!(table.byte(below), direct(below));

@@ -43,7 +43,7 @@ fn write_error(e: impl std::fmt::Display) -> PyErr {
 #[pyfunction]
 fn catalog_json() -> PyResult<String> {
     let catalog = scene_gen::sensor::Catalog::embedded();
-    serde_json::to_string(catalog.sensors()).map_err(failure)
+    serde_json::to_string(&catalog.records()).map_err(failure)
 }
 
 /// The COCO categories of every dataset and evaluation as JSON: ids 1..10 the object classes,

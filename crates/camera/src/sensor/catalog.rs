@@ -2,9 +2,11 @@
 //!
 //! The embedded catalog (`catalog.toml`, compiled in) holds the 43 sensors of the TaCOS
 //! catalog, corrected where public datasheets contradict it (each correction carries a
-//! `note`). Noise parameters are public figures where the entry's `source` cites them and
-//! otherwise estimates by a stated pixel-size rule (`estimated = true`). A user file with the
-//! same schema adds sensors; a model already present is replaced.
+//! `note`). Each noise figure that is not an estimate carries a `[[sensor.figure]]`: how it was
+//! obtained ([`FigureKind`]), the camera measured, the source address and the formula; the
+//! others are estimates by the pixel-size rule the entry's `source` states (`estimated = true`).
+//! [`Sensor::provenance`] reports every field either way. A user file with the same schema adds
+//! sensors; a model already present is replaced.
 
 use std::path::{Path, PathBuf};
 
@@ -65,6 +67,65 @@ pub struct Sensor {
     /// What was corrected against the reference catalog, and why.
     #[serde(default, skip_serializing_if = "String::is_empty")]
     pub note: String,
+    /// Where noise figures come from, one entry per field (`[[sensor.figure]]` in TOML). A field
+    /// without one is estimated by the rule in `source` when `estimated` is true, and measured
+    /// as `source` says when it is false (a user's own measurement needs no figures).
+    #[serde(default, rename = "figure", skip_serializing_if = "Vec::is_empty")]
+    pub figures: Vec<Figure>,
+}
+
+/// The noise fields whose provenance the catalog records.
+pub const NOISE_FIELDS: [&str; 4] = ["quantum_efficiency", "full_well_e", "read_noise_e", "dark_current_e_per_s"];
+
+/// How a figure was obtained.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum FigureKind {
+    /// Measured to EMVA 1288 on a camera built on the sensor.
+    Measured,
+    /// Computed from measured figures (e.g. saturation capacity from SNRmax, read noise from the
+    /// dynamic range); `how` gives the formula and the figures.
+    Derived,
+    /// The sensor maker's data sheet.
+    Datasheet,
+    /// A rule of thumb (the sensor's `source` states it).
+    Estimated,
+}
+
+/// The provenance of one noise figure.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Figure {
+    /// One of [`NOISE_FIELDS`].
+    pub field: String,
+    pub kind: FigureKind,
+    /// The camera measured (maker, model, mono or colour).
+    #[serde(default)]
+    pub camera: String,
+    /// The address of the page the figure comes from.
+    pub source: String,
+    /// How the value follows from the source (formula and inputs), or the quoted figure.
+    #[serde(default)]
+    pub how: String,
+}
+
+/// A sensor and the provenance of each noise field ([`Sensor::provenance`]).
+#[derive(Debug, Clone, Serialize)]
+pub struct SensorRecord<'a> {
+    #[serde(flatten)]
+    pub sensor: &'a Sensor,
+    pub provenance: Vec<FieldProvenance>,
+}
+
+/// The provenance of a sensor's noise field, as `sensors` reports it.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct FieldProvenance {
+    pub field: &'static str,
+    pub value: f64,
+    pub kind: FigureKind,
+    pub camera: String,
+    pub source: String,
+    pub how: String,
 }
 
 impl Sensor {
@@ -78,6 +139,60 @@ impl Sensor {
     #[must_use]
     pub fn area_mm2(&self) -> f64 {
         self.active_area_mm[0] * self.active_area_mm[1]
+    }
+
+    /// The value of one of [`NOISE_FIELDS`].
+    fn noise_value(&self, field: &str) -> Option<f64> {
+        match field {
+            "quantum_efficiency" => Some(self.quantum_efficiency),
+            "full_well_e" => Some(self.full_well_e),
+            "read_noise_e" => Some(self.read_noise_e),
+            "dark_current_e_per_s" => Some(self.dark_current_e_per_s),
+            _ => None,
+        }
+    }
+
+    /// Every noise field with its value and where it comes from: its `[[sensor.figure]]`, or
+    /// an estimate by the rule in `source`.
+    #[must_use]
+    pub fn provenance(&self) -> Vec<FieldProvenance> {
+        NOISE_FIELDS
+            .iter()
+            .map(|&field| {
+                let value = self.noise_value(field).expect("a noise field");
+                match self.figures.iter().find(|f| f.field == field) {
+                    Some(f) => FieldProvenance {
+                        field,
+                        value,
+                        kind: f.kind,
+                        camera: f.camera.clone(),
+                        source: f.source.clone(),
+                        how: f.how.clone(),
+                    },
+                    None if self.estimated => FieldProvenance {
+                        field,
+                        value,
+                        kind: FigureKind::Estimated,
+                        camera: String::new(),
+                        source: String::new(),
+                        how: self.source.clone(),
+                    },
+                    None => FieldProvenance {
+                        field,
+                        value,
+                        kind: FigureKind::Measured,
+                        camera: String::new(),
+                        source: self.source.clone(),
+                        how: String::new(),
+                    },
+                }
+            })
+            .collect()
+    }
+
+    /// Whether every noise field is measured, derived or from a data sheet.
+    fn fully_sourced(&self) -> bool {
+        NOISE_FIELDS.iter().all(|&f| self.figures.iter().any(|g| g.field == f && g.kind != FigureKind::Estimated))
     }
 
     fn check(&self) -> Result<(), String> {
@@ -99,6 +214,23 @@ impl Sensor {
         }
         if !(1..=16).contains(&self.adc_bits) {
             return Err(format!("adc_bits must be 1..16, got {}", self.adc_bits));
+        }
+        for (i, f) in self.figures.iter().enumerate() {
+            if self.noise_value(&f.field).is_none() {
+                return Err(format!("figure {}: field '{}' is not one of {}", i + 1, f.field, NOISE_FIELDS.join(", ")));
+            }
+            if self.figures[..i].iter().any(|g| g.field == f.field) {
+                return Err(format!("figure {}: field '{}' has two figures", i + 1, f.field));
+            }
+            if f.kind != FigureKind::Estimated && f.source.trim().is_empty() {
+                return Err(format!("figure {} ({}): a {:?} figure needs its source", i + 1, f.field, f.kind));
+            }
+        }
+        if self.estimated && self.fully_sourced() {
+            return Err("estimated = true but every noise field has a measured, derived or data-sheet figure".into());
+        }
+        if !self.estimated && self.figures.iter().any(|f| f.kind == FigureKind::Estimated) {
+            return Err("estimated = false but a figure is estimated".into());
         }
         if self.resolution[0] == 0 || self.resolution[1] == 0 {
             return Err("resolution must be positive".into());
@@ -166,6 +298,12 @@ impl Catalog {
     #[must_use]
     pub fn get(&self, model: &str) -> Option<&Sensor> {
         self.sensors.iter().find(|s| s.model.eq_ignore_ascii_case(model))
+    }
+
+    /// Every sensor with the provenance of its noise fields, as `sensors --json` writes them.
+    #[must_use]
+    pub fn records(&self) -> Vec<SensorRecord<'_>> {
+        self.sensors.iter().map(|sensor| SensorRecord { sensor, provenance: sensor.provenance() }).collect()
     }
 
     /// All sensors, sorted by active area (smallest first); ties by model name.

@@ -13,5 +13,7 @@
 pub mod catalog;
 pub mod noise;
 
-pub use catalog::{Catalog, CatalogError, Colour, Sensor, Shutter};
+pub use catalog::{
+    Catalog, CatalogError, Colour, FieldProvenance, Figure, FigureKind, NOISE_FIELDS, Sensor, SensorRecord, Shutter,
+};
 pub use noise::{AffineNoise, Effects, FixedPattern, ModelError, SensorModel};
