@@ -29,9 +29,9 @@
 use crate::camera_spec::{NoiseKind, ResolvedCamera};
 use crate::demosaic::CfaPattern;
 use crate::develop::{Develop, develop};
-use crate::isp::MID_GREY_REFLECTANCE;
+use crate::isp::{MID_GREY_REFLECTANCE, mid_grey_photons};
 use crate::optics::{OpticsInput, OpticsPlan, apply_plan};
-use crate::radiometry::{SensorImage, photon_image, photons_per_pixel};
+use crate::radiometry::{SensorImage, photon_image};
 use crate::sensor::{Colour, SensorModel};
 use crate::spectral::ChannelMatrix;
 use scene_gen_render::Camera;
@@ -164,15 +164,7 @@ impl ColourIsp {
     ) -> ColourIsp {
         let spec = &resolved.spec;
         let model = electron_model(resolved, 0);
-        let grey_nit = MID_GREY_REFLECTANCE * target_lux / std::f64::consts::PI;
-        let grey_photons = photons_per_pixel(
-            grey_nit,
-            f64::from(spec.f_number),
-            f64::from(spec.lens_transmittance),
-            1.0,
-            spec.exposure_s,
-            f64::from(resolved.pixel_pitch_um),
-        );
+        let grey_photons = mid_grey_photons(resolved, target_lux);
         let black = model.expected_mean_dn(0.0, 0.0, gain_db);
         let range = model.max_dn() - black;
         let white_balance = std::array::from_fn(|c| {

@@ -99,15 +99,7 @@ impl Isp {
     pub fn for_scenario(resolved: &ResolvedCamera, gain_db: f64, target_lux: f64, channels: u8) -> Isp {
         let spec = &resolved.spec;
         let model = resolved.sensor_model(0);
-        let luminance_nit = MID_GREY_REFLECTANCE * target_lux / std::f64::consts::PI;
-        let photons = photons_per_pixel(
-            luminance_nit,
-            f64::from(spec.f_number),
-            f64::from(spec.lens_transmittance),
-            1.0,
-            spec.exposure_s,
-            f64::from(resolved.pixel_pitch_um),
-        );
+        let photons = mid_grey_photons(resolved, target_lux);
         // No light and no time: the black offset alone.
         let black = model.expected_mean_dn(0.0, 0.0, gain_db);
         let grey = model.expected_mean_dn(photons, spec.exposure_s, gain_db);
@@ -128,6 +120,21 @@ impl Isp {
         let x = (MID_GREY_REFLECTANCE * (value - self.black) / self.mid_grey_signal).clamp(0.0, 1.0);
         255.0 * srgb_encode(x)
     }
+}
+
+/// Mean 555 nm-equivalent photons per pixel, on axis, from the reference grey
+/// ([`MID_GREY_REFLECTANCE`], Lambertian) lit at `target_lux`: what the ISPs set their gain on.
+#[must_use]
+pub fn mid_grey_photons(resolved: &ResolvedCamera, target_lux: f64) -> f64 {
+    let spec = &resolved.spec;
+    photons_per_pixel(
+        MID_GREY_REFLECTANCE * target_lux / std::f64::consts::PI,
+        f64::from(spec.f_number),
+        f64::from(spec.lens_transmittance),
+        1.0,
+        spec.exposure_s,
+        f64::from(resolved.pixel_pitch_um),
+    )
 }
 
 /// The sRGB transfer function (IEC 61966-2-1), linear [0, 1] to encoded [0, 1].
