@@ -328,14 +328,79 @@ fn indirect_light_reaches_what_the_window_cannot_see() {
     let scene = window_room();
     // Looking down at the floor at the east end, behind the partition.
     let cam = Camera { pixel_pitch_um: 20.0, ..camera(16, 12, Vec3::new(4.5, 1.0, 2.0), 0.0, -90.0) };
-    let direct_only = RenderSettings { indirect_rays: 0, ..RenderSettings::standard() };
+    let direct_only = RenderSettings { indirect_rays: 0, indirect_volume: None, ..RenderSettings::standard() };
     let dark = Renderer::new(&scene, direct_only).render(&cam).unwrap();
     assert!(dark.day_nit.iter().all(|c| *c == [0.0; 3]), "no direct light behind the partition");
     let lit = Renderer::new(&scene, RenderSettings::standard()).render(&cam).unwrap();
     assert_no_nan(&lit);
     let mean = lit.day_nit.iter().map(|c| lum(*c)).sum::<f32>() / lit.day_nit.len() as f32;
-    assert!(mean > 0.05, "one bounce lights the hidden floor, mean {mean} nit");
+    assert!(mean > 0.05, "bounced light lights the hidden floor, mean {mean} nit");
     assert!(lit.night_nit.iter().all(|c| *c == [0.0; 3]));
+}
+
+/// A closed 4 x 3 x 2.5 m box of albedo `albedo` seen from inside, with a 10 cd point light
+/// in its middle; as one room of the floorplan when `as_room`, else a scene without rooms.
+fn closed_box(albedo: f32, as_room: bool) -> Scene {
+    let mut scene = empty_scene();
+    let size = Vec3::new(4.0, 3.0, 2.5);
+    if as_room {
+        scene.wall_thickness_m = 0.0;
+        scene.envelope.height_m = size.z;
+        scene.rooms.push(Room { id: 0, room_type: "test".into(), min: Vec2::ZERO, max: size.truncate() });
+    }
+    let paint = add_material(&mut scene, "paint_0", [albedo; 3], 0.0, 1.0);
+    add_mesh(&mut scene, box_primitive(Vec3::ZERO, size, paint, true), Mat4::IDENTITY, Semantic::Floor { room: 0 });
+    scene.lights.push(point_light(LightGroup::Night, size * 0.5, 10.0));
+    scene
+}
+
+/// Area-weighted mean illuminance over the inside of `closed_box`'s faces (points on a
+/// 0.125 m grid of cell centres, 1 mm in front of each face).
+fn mean_face_illuminance(renderer: &Renderer<'_>) -> f32 {
+    let size = Vec3::new(4.0, 3.0, 2.5);
+    let (mut sum, mut area) = (0.0f64, 0.0f64);
+    for axis in 0..3 {
+        let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
+        let (nu, nv) = ((size[u] / 0.125).round() as usize, (size[v] / 0.125).round() as usize);
+        for side in [0.0f32, 1.0] {
+            let mut normal = Vec3::ZERO;
+            normal[axis] = 1.0 - 2.0 * side;
+            for i in 0..nu {
+                for j in 0..nv {
+                    let mut p = Vec3::ZERO;
+                    p[axis] = side * size[axis] + normal[axis] * 1e-3;
+                    p[u] = (i as f32 + 0.5) * size[u] / nu as f32;
+                    p[v] = (j as f32 + 0.5) * size[v] / nv as f32;
+                    sum += f64::from(renderer.illuminance_lux(p, normal, LightGroup::Night));
+                    area += 1.0;
+                }
+            }
+        }
+    }
+    // Every cell of a face has the same area, and the faces' cell sizes are equal.
+    (sum / area) as f32
+}
+
+#[test]
+fn bounced_light_conserves_energy_in_a_closed_room() {
+    // In a closed room of uniform albedo rho, every lumen the lamp gives is absorbed at last:
+    // flux = (1 - rho) * mean irradiance * area, so the mean irradiance over the faces is
+    // 4 pi I / ((1 - rho) A) with every bounce, and 4 pi I / A from direct light alone.
+    let area = 2.0 * (4.0 * 3.0 + 4.0 * 2.5 + 3.0 * 2.5);
+    let flux_lm = 4.0 * PI * 10.0;
+    for as_room in [true, false] {
+        for albedo in [0.3f32, 0.7] {
+            let scene = closed_box(albedo, as_room);
+            let direct_only =
+                RenderSettings { indirect_volume: None, probe_indirect_rays: 0, ..RenderSettings::preview() };
+            let direct = Renderer::new(&scene, direct_only);
+            assert_close(mean_face_illuminance(&direct), flux_lm / area, 0.02, "direct light alone");
+            let lit = Renderer::new(&scene, RenderSettings::preview());
+            let want = flux_lm / ((1.0 - albedo) * area);
+            let what = format!("every bounce, albedo {albedo}, room {as_room}");
+            assert_close(mean_face_illuminance(&lit), want, 0.03, &what);
+        }
+    }
 }
 
 #[test]
@@ -364,9 +429,9 @@ fn each_view_draws_its_own_noise() {
     let scene = window_room();
     let cam = Camera { pixel_pitch_um: 10.0, ..camera(64, 48, Vec3::new(3.5, 3.6, 2.0), 0.0, -90.0) };
     let turned = Camera { yaw_deg: cam.yaw_deg + 1e-3, ..cam };
-    let renderer = Renderer::new(&scene, RenderSettings::preview());
+    let renderer = Renderer::new(&scene, direct_preview());
     let (a, b) = (renderer.render(&cam).unwrap(), renderer.render(&turned).unwrap());
-    let reseeded = Renderer::new(&scene, RenderSettings { seed: 1, ..RenderSettings::preview() }).render(&cam).unwrap();
+    let reseeded = Renderer::new(&scene, RenderSettings { seed: 1, ..direct_preview() }).render(&cam).unwrap();
     assert!(renderer.render(&cam).unwrap() == a, "the same view renders the same bytes");
     let differs = |x: [f32; 3], y: [f32; 3]| (lum(x) - lum(y)).abs() > 0.05 * lum(x).max(lum(y));
     let noisy: Vec<usize> = (0..a.day_nit.len()).filter(|&i| differs(a.day_nit[i], reseeded.day_nit[i])).collect();
@@ -375,9 +440,15 @@ fn each_view_draws_its_own_noise() {
     assert!(new_noise * 2 > noisy.len(), "{new_noise} of {} noisy pixels changed with the view", noisy.len());
 }
 
-/// `preview` with [`ShadingRate::Decoupled`] at `stride` on frames of any width.
+/// `preview` without the irradiance volume: direct light only, for the checks of how direct
+/// light is sampled and shaded.
+fn direct_preview() -> RenderSettings {
+    RenderSettings { indirect_volume: None, ..RenderSettings::preview() }
+}
+
+/// [`direct_preview`] with [`ShadingRate::Decoupled`] at `stride` on frames of any width.
 fn decoupled(stride: u32) -> RenderSettings {
-    RenderSettings { shading: ShadingRate::Decoupled { stride, min_width_px: 0 }, ..RenderSettings::preview() }
+    RenderSettings { shading: ShadingRate::Decoupled { stride, min_width_px: 0 }, ..direct_preview() }
 }
 
 /// A floor under a point light, seen from above: irradiance varies smoothly (cos^3 / h^2),
@@ -435,7 +506,7 @@ fn decoupled_shading_never_blends_across_surfaces() {
     // irradiance, its sides none, its shadow hides under it. A pixel that took irradiance from
     // an anchor on another face (a side from the top or the floor) would be far off.
     let (scene, cam) = sunlit_box(-Vec3::Z);
-    let full = Renderer::new(&scene, RenderSettings::preview()).render(&cam).unwrap();
+    let full = Renderer::new(&scene, direct_preview()).render(&cam).unwrap();
     for stride in [2, 4] {
         let frame = Renderer::new(&scene, decoupled(stride)).render(&cam).unwrap();
         let sides = full.day_nit.iter().filter(|c| lum(**c) == 0.0 && c.iter().all(|v| *v == 0.0)).count();
@@ -450,9 +521,9 @@ fn decoupled_shading_never_blends_across_surfaces() {
     }
 }
 
-/// `preview` with [`ShadingRate::Adaptive`] at `stride` on frames of any width.
+/// [`direct_preview`] with [`ShadingRate::Adaptive`] at `stride` on frames of any width.
 fn adaptive(stride: u32) -> RenderSettings {
-    RenderSettings { shading: ShadingRate::Adaptive { stride, min_width_px: 0 }, ..RenderSettings::preview() }
+    RenderSettings { shading: ShadingRate::Adaptive { stride, min_width_px: 0 }, ..direct_preview() }
 }
 
 #[test]

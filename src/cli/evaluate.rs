@@ -41,9 +41,10 @@ pub struct EvaluateArgs {
     /// anchor frames; `{gt}` is replaced by the COCO ground-truth file written next to them.
     #[arg(long)]
     pub detector: Option<String>,
-    /// Bounce rays per pixel in the evaluator's render (default 0: direct light only, see
-    /// `eval_render_settings`); 1 lights what no sun or window reaches by day, at about twice
-    /// the render time.
+    /// Final-gather bounce rays per pixel in the evaluator's render, each bounce lit by its
+    /// direct light and the irradiance volume (default 0: the volume alone, see
+    /// `eval_render_settings`); sharper bounced light near contacts, at about twice the render
+    /// time per ray.
     #[arg(long, default_value_t = 0)]
     pub bounce_rays: u32,
     /// Fill the shading anchors coarse to fine (`ShadingRate::Adaptive`). The evaluator always

@@ -81,11 +81,11 @@ pub enum Lighting {
 /// Sample-count presets of the ray tracer.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum Quality {
-    /// One ray per pixel, no bounce light.
+    /// One ray per pixel; bounced light from the irradiance volume.
     Preview,
-    /// 2x2 pixel samples, one-bounce indirect light.
+    /// 2x2 pixel samples; bounced light from the irradiance volume.
     Standard,
-    /// 4x4 pixel samples, more bounce rays.
+    /// 4x4 pixel samples; one final-gather bounce ray per sample over the volume.
     High,
 }
 

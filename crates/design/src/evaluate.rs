@@ -51,10 +51,11 @@
 //!
 //! # Known limits
 //!
-//! The evaluator's render ([`eval_render_settings`]) traces direct light only: by day, surfaces
-//! neither the sun nor a window reaches are black, so a narrow camera can lose usable day
-//! frames that one bounce ray (`--bounce-rays 1`, about twice the time) restores. The
-//! day-versus-night figures are in docs/BENCHMARKS.md ("Detection: day versus night").
+//! The evaluator's render ([`eval_render_settings`]) takes light that bounced from the
+//! house's irradiance volume (`scene_gen_render::irradiance_volume`): smooth, so contact
+//! shadows of bounced light are softer than real; `--bounce-rays N` adds a final gather of N
+//! rays per pixel over it. The day-versus-night figures are in docs/BENCHMARKS.md
+//! ("Detection: day versus night").
 //!
 //! # Determinism and caching
 //!
@@ -135,7 +136,8 @@ pub const EVAL_RECT_SAMPLES_PER_AXIS: u32 = 2;
 pub const EVAL_VISIBILITY_FILTER_RADIUS: u32 = 2;
 
 /// The evaluator's ray-tracer settings: [`RenderSettings::preview`] (one ray per pixel through
-/// its centre, no bounce) with every light traced (no culling roulette),
+/// its centre, bounced light from the irradiance volume) with every light traced (no culling
+/// roulette),
 /// [`EVAL_RECT_SAMPLES_PER_AXIS`]^2 visibility samples per window at each anchor pooled over
 /// [`EVAL_VISIBILITY_FILTER_RADIUS`] anchors, and [`ShadingRate::Adaptive`] shading
 /// (irradiance at anchors every [`EVAL_DECOUPLED_STRIDE`] pixels, filled coarse to fine and
@@ -153,11 +155,11 @@ pub const EVAL_VISIBILITY_FILTER_RADIUS: u32 = 2;
 /// give 360. Four per anchor pooled over their neighbours at stride 4 give 341 (night 228 of
 /// 233) in 29.8 s (docs/BENCHMARKS.md, "Render noise and ORB inliers").
 ///
-/// Known problems (module docs, "Known limits"): without bounce light, surfaces no sun or
-/// window reaches directly are black by day, so narrow cameras lose usable day frames; one
-/// bounce ray (`indirect_rays: 1`) restores them at about twice the CPU time. Set
-/// [`EvalConfig::render`] (and `render_name`) to use others; `scene-gen evaluate
-/// --bounce-rays N` adds N bounce rays per pixel.
+/// Light that bounced, any number of times, comes from the house's irradiance volume, traced
+/// once per house and shared by every candidate of the process
+/// (`scene_gen_render::IrradianceVolume::shared`). Set [`EvalConfig::render`] (and
+/// `render_name`) to use others; `scene-gen evaluate --bounce-rays N` adds N final-gather
+/// bounce rays per pixel.
 #[must_use]
 pub fn eval_render_settings() -> RenderSettings {
     RenderSettings {

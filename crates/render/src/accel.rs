@@ -229,6 +229,15 @@ impl Accel {
         &self.bvh
     }
 
+    /// The unit normal of triangle `triangle` (BVH order) as its vertices wind: the side the
+    /// mesh calls its front, which [`Accel::surface`] does not keep (it faces the normal to the
+    /// ray). A ray that meets a triangle from behind has entered a closed solid.
+    #[must_use]
+    #[inline(always)]
+    pub fn face_normal(&self, triangle: u32) -> Vec3 {
+        self.attrs[triangle as usize].geometric_normal
+    }
+
     /// Number of triangles in the BVH.
     #[must_use]
     pub fn triangle_count(&self) -> usize {

@@ -6,7 +6,8 @@
 //! * [`camera`]: the pinhole camera from plain numbers, and [`camera::sensor_illuminance_lux`]
 //!   (scene luminance to sensor-plane illuminance; the sensor model takes it from there).
 //! * [`lights`]: direct illuminance from point, directional and rect lights with shadow rays.
-//! * [`shade`]: textures, materials and the one-bounce light transport estimate.
+//! * [`shade`]: textures, materials and the light transport estimate.
+//! * [`irradiance_volume`]: light that bounced any number of times, computed once per scene.
 //!
 //! A [`Renderer`] owns the BVH and the prepared lights of one scene and renders any number of
 //! views into [`Frame`]s. Radiance is traced once and kept per [`LightGroup`], so day and night
@@ -34,6 +35,7 @@
 pub mod accel;
 pub mod camera;
 mod hit_batch;
+pub mod irradiance_volume;
 pub mod lights;
 mod reach;
 mod refine;
@@ -50,6 +52,7 @@ use rayon::prelude::*;
 
 pub use accel::Accel;
 pub use camera::{Camera, DEFAULT_LENS_TRANSMITTANCE, PixelRect, sensor_illuminance_lux};
+pub use irradiance_volume::{IrradianceVolume, VolumeSettings};
 use lights::RectShare;
 pub use lights::{Blockers, LightSet, luminance};
 
@@ -130,8 +133,15 @@ pub struct RenderSettings {
     pub samples_per_axis: u32,
     /// `n x n` stratified area samples per rect light at a camera-ray hit (soft shadows).
     pub rect_samples_per_axis: u32,
-    /// Cosine-weighted bounce rays per camera sample (indirect light noise).
+    /// Cosine-weighted bounce rays per camera sample: a final gather, each bounce hit shaded
+    /// with its direct light and the [`RenderSettings::indirect_volume`]'s light (sharper
+    /// indirect detail than the volume alone, at the cost of noise). With 0, a hit reads the
+    /// volume directly.
     pub indirect_rays: u32,
+    /// The irradiance volume that carries light that bounced any number of times
+    /// ([`irradiance_volume`]), built once per [`Renderer`]; `None` leaves only what the
+    /// bounce rays see lit directly (one bounce), or direct light alone without them.
+    pub indirect_volume: Option<VolumeSettings>,
     /// Trace mirror rays on metallic surfaces.
     pub specular: bool,
     /// Clamp of a bounce sample's radiance, in multiples of the group's reference radiance
@@ -156,14 +166,16 @@ pub struct RenderSettings {
 }
 
 impl RenderSettings {
-    /// One ray per pixel, no bounce: geometry and direct light checks in a fraction of the time.
-    /// The one ray goes through the pixel centre and gives both the labels and the radiance.
+    /// One ray per pixel with the irradiance volume's indirect light and no bounce rays: the
+    /// fastest full render. The one ray goes through the pixel centre and gives both the
+    /// labels and the radiance.
     #[must_use]
     pub const fn preview() -> RenderSettings {
         RenderSettings {
             samples_per_axis: 1,
             rect_samples_per_axis: 1,
             indirect_rays: 0,
+            indirect_volume: Some(VolumeSettings::DEFAULT),
             specular: false,
             indirect_clamp: DEFAULT_INDIRECT_CLAMP,
             light_cull: DEFAULT_LIGHT_CULL,
@@ -175,13 +187,14 @@ impl RenderSettings {
         }
     }
 
-    /// The default: 2x2 pixel samples, 2x2 rect samples, 2 bounce rays per sample.
+    /// The default: 2x2 pixel samples, 2x2 rect samples, the volume's indirect light.
     #[must_use]
     pub const fn standard() -> RenderSettings {
         RenderSettings {
             samples_per_axis: 2,
             rect_samples_per_axis: 2,
-            indirect_rays: 2,
+            indirect_rays: 0,
+            indirect_volume: Some(VolumeSettings::DEFAULT),
             specular: true,
             indirect_clamp: DEFAULT_INDIRECT_CLAMP,
             light_cull: DEFAULT_LIGHT_CULL,
@@ -193,13 +206,15 @@ impl RenderSettings {
         }
     }
 
-    /// Low noise for reference images: 4x4 pixel samples, 3x3 rect samples, 4 bounce rays.
+    /// Low noise for reference images: 4x4 pixel samples, 3x3 rect samples, one final-gather
+    /// bounce ray per sample over the volume.
     #[must_use]
     pub const fn high() -> RenderSettings {
         RenderSettings {
             samples_per_axis: 4,
             rect_samples_per_axis: 3,
-            indirect_rays: 4,
+            indirect_rays: 1,
+            indirect_volume: Some(VolumeSettings::DEFAULT),
             specular: true,
             indirect_clamp: DEFAULT_INDIRECT_CLAMP,
             light_cull: DEFAULT_LIGHT_CULL,
@@ -571,6 +586,8 @@ pub struct Renderer<'a> {
     lights: LightSet,
     /// The materials as a packet's hits are evaluated ([`responses`]).
     materials: responses::MaterialTable<'a>,
+    /// Light that bounced more than once ([`RenderSettings::indirect_volume`]).
+    volume: Option<std::sync::Arc<IrradianceVolume>>,
     settings: RenderSettings,
     /// Which build of the tile loop runs ([`scene_gen_core::simd`]; same frame either way).
     dispatch: scene_gen_core::simd::Dispatch,
@@ -581,14 +598,21 @@ pub struct Renderer<'a> {
 }
 
 impl<'a> Renderer<'a> {
-    /// Builds the BVH and prepares the lights at their nominal intensities.
+    /// Builds the BVH, prepares the lights at their nominal intensities and, where the
+    /// settings ask for one, traces the irradiance volume (or reuses the one this process
+    /// built for the same scene, [`IrradianceVolume::shared`]).
     #[must_use]
     pub fn new(scene: &'a Scene, settings: RenderSettings) -> Renderer<'a> {
+        let accel = Accel::build(scene);
+        let lights = LightSet::for_scene(scene, [1.0, 1.0]);
+        let volume =
+            settings.indirect_volume.map(|v| IrradianceVolume::shared(scene, &accel, &lights, &v, settings.seed));
         Renderer {
             scene,
-            accel: Accel::build(scene),
-            lights: LightSet::for_scene(scene, [1.0, 1.0]),
+            accel,
+            lights,
             materials: responses::MaterialTable::new(scene),
+            volume,
             settings,
             dispatch: scene_gen_core::simd::Dispatch::current(),
             batch_lights: true,
@@ -607,6 +631,12 @@ impl<'a> Renderer<'a> {
         &self.settings
     }
 
+    /// The irradiance volume, if the settings asked for one.
+    #[must_use]
+    pub fn volume(&self) -> Option<&IrradianceVolume> {
+        self.volume.as_deref()
+    }
+
     /// A tracer over this scene whose shadow rays keep their hints in `blockers` and whose
     /// pixel streams start from `pixel_seed`.
     #[inline(always)]
@@ -619,6 +649,7 @@ impl<'a> Renderer<'a> {
             blockers,
             pixel_seed,
             point_lights: lights::PointLights::Traced,
+            volume: self.volume.as_deref(),
         }
     }
 
@@ -771,8 +802,10 @@ impl<'a> Renderer<'a> {
     }
 
     /// Illuminance (lux, luminance-weighted over the RGB channels) from one group on a surface
-    /// at `point` facing `normal`: direct light plus the one-bounce indirect estimate, with the
-    /// probe sample counts. The point is treated as a free-floating receiver (nothing under it).
+    /// at `point` facing `normal`: direct light plus the indirect light, from the irradiance
+    /// volume where there is one, else from [`RenderSettings::probe_indirect_rays`] bounce
+    /// rays; rect lights with the probe sample counts. The point is treated as a free-floating
+    /// receiver (nothing under it).
     #[must_use]
     pub fn illuminance_lux(&self, point: Vec3, normal: Vec3, group: LightGroup) -> f32 {
         let normal = normal.normalize_or(Vec3::Z);
@@ -794,7 +827,7 @@ impl<'a> Renderer<'a> {
             &mut sampler,
             &blockers,
         );
-        let rays = self.settings.probe_indirect_rays;
+        let rays = if self.volume.is_some() { 0 } else { self.settings.probe_indirect_rays };
         let strata = Strata { first: 0, stride: 1, total: rays, rotation: sampler.uniform() };
         let indirect = tracer.indirect_irradiance(point, normal, normal, rays, strata, &mut sampler);
         let g = group_index(group);

@@ -4,11 +4,13 @@
 //!
 //! * **Physical**: Lambertian reflection `L = rho / pi * E` of the base colour (texture
 //!   bilinear-sampled with repeat wrapping, sRGB-decoded, times the base-colour factor); direct
-//!   illuminance from every light with shadow rays (see [`super::lights`]); one diffuse bounce
-//!   estimated with cosine-weighted rays, `E_indirect = pi * mean(L_bounce)`, where the bounce
-//!   point is shaded with direct light only (so inter-reflection is under-estimated: the second
-//!   and later bounces are missing, roughly `rho^2` of the total in a closed room).
-//! * **Biased on purpose**: a bounce sample's radiance is clamped to
+//!   illuminance from every light with shadow rays (see [`super::lights`]); light that bounced
+//!   any number of times from the scene's irradiance volume ([`super::irradiance_volume`]),
+//!   read at the point or, with bounce rays, gathered by cosine-weighted rays,
+//!   `E_indirect = pi * mean(L_bounce)`, whose hits are shaded with direct light and the
+//!   volume (a final gather). Without a volume the bounce hits get direct light only, and the
+//!   second and later bounces are missing.
+//! * **Biased on purpose**: a bounce ray's radiance is clamped to
 //!   [`RenderSettings::indirect_clamp`] times the group's reference radiance (`I / pi` of its
 //!   strongest point light at 1 m, `E / pi` of the sun, `L` of its brightest rect light). A
 //!   ceiling 0.1 m above a bulb is hundreds of times brighter than the rest of the room and
@@ -28,6 +30,7 @@ use std::sync::OnceLock;
 use glam::{Vec2, Vec3};
 
 use super::accel::{Accel, Hit, SurfacePoint};
+use super::irradiance_volume::IrradianceVolume;
 use super::lights::{Blockers, LightSet, PointLights, RectShare, luminance, ray_epsilon};
 use super::{GroupRgb, RenderSettings, Sampler, Strata};
 use scene_gen_scene::scene::{Material, Scene, Texture};
@@ -168,6 +171,8 @@ pub(crate) struct Tracer<'a> {
     /// Whether the point and directional lights are traced here or by the caller, for a
     /// packet's hits together ([`super::hit_batch`]; only camera-ray hits, never bounces).
     pub point_lights: PointLights,
+    /// Light that bounced more than once, if the settings keep it.
+    pub volume: Option<&'a IrradianceVolume>,
 }
 
 /// A unit vector in the hemisphere about `n`, cosine-distributed, from `(u1, u2)` in [0, 1)^2.
@@ -190,12 +195,13 @@ fn add(a: GroupRgb, b: GroupRgb) -> GroupRgb {
 }
 
 impl Tracer<'_> {
-    /// Radiance leaving a surface point diffusely when lit by direct light only (the shading
-    /// of a bounce), per group.
+    /// Radiance leaving a surface point diffusely (the shading of a bounce or a mirror's
+    /// view), per group: its direct light with one sample per rect light, plus the volume's
+    /// indirect light where there is a volume.
     #[inline(always)]
-    fn diffuse_direct_radiance(&self, surface: &SurfacePoint, sampler: &mut Sampler) -> GroupRgb {
+    fn diffuse_radiance(&self, surface: &SurfacePoint, sampler: &mut Sampler) -> GroupRgb {
         let response = surface_response(self.scene, surface);
-        let e = self.lights.direct(
+        let mut e = self.lights.direct(
             self.accel,
             surface.position,
             surface.geometric_normal,
@@ -206,11 +212,15 @@ impl Tracer<'_> {
             sampler,
             self.blockers,
         );
+        if let Some(volume) = self.volume {
+            e = add(e, volume.irradiance(surface.position, surface.shading_normal));
+        }
         scale(e, response.diffuse * std::f32::consts::FRAC_1_PI)
     }
 
-    /// Indirect irradiance at a point from `rays` cosine-weighted bounce rays, each bounce
-    /// shaded with direct light only; emitters seen by a bounce ray are not counted (direct
+    /// Indirect irradiance at a point: with no rays, the volume's (zero without a volume);
+    /// else from `rays` cosine-weighted bounce rays, each bounce shaded by
+    /// [`Tracer::diffuse_radiance`]; emitters seen by a bounce ray are not counted (direct
     /// light sampling already has them). The rays take their places `strata.first..` of a
     /// 2D point set spread over the whole pixel (see [`Strata`]).
     #[inline(always)]
@@ -225,7 +235,10 @@ impl Tracer<'_> {
     ) -> GroupRgb {
         let mut sum = [Vec3::ZERO; 2];
         if rays == 0 {
-            return sum;
+            return match self.volume {
+                Some(volume) => volume.irradiance(point, ns),
+                None => sum,
+            };
         }
         let origin = point + ng * ray_epsilon(point);
         for k in 0..rays {
@@ -236,7 +249,7 @@ impl Tracer<'_> {
             }
             if let Some(hit) = self.accel.closest_hit(origin, dir, f32::INFINITY) {
                 let surface = self.accel.surface(&hit, origin, dir);
-                let mut l = self.diffuse_direct_radiance(&surface, sampler);
+                let mut l = self.diffuse_radiance(&surface, sampler);
                 for (g, c) in l.iter_mut().enumerate() {
                     let limit = self.settings.indirect_clamp * self.lights.reference_nit[g];
                     let y = luminance(*c);
@@ -319,7 +332,8 @@ impl Tracer<'_> {
             Some(room) => !self.lights.reach.lists(room).rects.is_empty(),
             None => false,
         };
-        let diffuse = response.diffuse != Vec3::ZERO && (self.settings.indirect_rays > 0 || rects_in_reach);
+        let indirect = self.settings.indirect_rays > 0 || self.volume.is_some();
+        let diffuse = response.diffuse != Vec3::ZERO && (indirect || rects_in_reach);
         diffuse || (self.settings.specular && response.specular != Vec3::ZERO)
     }
 
@@ -430,7 +444,7 @@ impl Tracer<'_> {
             return l;
         }
         match hit {
-            Some(hit) => self.diffuse_direct_radiance(&self.accel.surface(&hit, origin, dir), sampler),
+            Some(hit) => self.diffuse_radiance(&self.accel.surface(&hit, origin, dir), sampler),
             None => [Vec3::ZERO; 2],
         }
     }

@@ -486,7 +486,10 @@ impl Renderer<'_> {
         let origins = splat(origin);
         let mut draws = [0.0f32; 2 * PACKET_RAYS];
         // Whether any hit can need more than the point and directional lights.
-        let may_need_more = self.settings.indirect_rays > 0 || self.settings.specular || !self.lights.rects.is_empty();
+        let may_need_more = self.settings.indirect_rays > 0
+            || self.volume.is_some()
+            || self.settings.specular
+            || !self.lights.rects.is_empty();
         for j in 0..n {
             for i in 0..n {
                 // Per cell, its jitter across then down, in cell order.

@@ -1,0 +1,726 @@
+//! Light that has bounced any number of times, from an irradiance volume computed once per
+//! scene and shared by every view.
+//!
+//! A house is static and its light groups add linearly, so the indirect light it holds does
+//! not depend on the camera: it is computed once, on a grid of probes in every room, and every
+//! frame, candidate camera and scenario reads it. Each probe stores an *ambient cube*: the
+//! irradiance on six faces looking along +x, -x, +y, -y, +z and -z, each the exact
+//! cosine-weighted integral of what the probe's rays bring from that face's hemisphere; a
+//! surface of normal `n` reads `n_x^2 E(+-x) + n_y^2 E(+-y) + n_z^2 E(+-z)` (McTaggart,
+//! "Half-Life 2 / Valve Source shading", GDC 2004; Mitchell, McTaggart and Green, "Shading in
+//! Valve's Source engine", SIGGRAPH 2006 course). Rooms, walls, floors and most furniture are
+//! axis-aligned, and for those faces the cube is exact: a floor reads only the light from
+//! above it, where order-2 spherical harmonics (Ramamoorthi and Hanrahan, SIGGRAPH 2001) ring
+//! a few per cent of the floor's own light back onto it. A shading point blends the probes
+//! of its room's grid around it trilinearly, as the irradiance volumes of Greger et al. ("The
+//! irradiance volume", IEEE CG&A 1998) do, with two refinements of probe-based real-time
+//! global illumination (Majercik et al., "Dynamic diffuse global illumination with
+//! ray-traced irradiance fields", JCGT 2019): probes whose rays mostly hit back faces
+//! (inside furniture) are left out, and probes behind the surface weigh less.
+//!
+//! How the probes learn the multi-bounce light: every probe casts [`VolumeSettings::rays`]
+//! rays (a spherical Fibonacci set, randomly rotated per probe) and records what each hits:
+//! its albedo and the direct light leaving it ([`LightSet::direct`] with shadow rays). Then
+//! the volume is iterated: the radiance a ray brings back is the direct light leaving its hit
+//! plus the hit's albedo times the irradiance the previous iteration's volume gives there. The
+//! first pass holds light that bounced once, pass `k` light that bounced up to `k` times; the
+//! loop stops when a pass changes the total by less than [`CONVERGED`] or after
+//! [`VolumeSettings::max_bounces`]. Rays are traced once; the passes only re-read the volume.
+//!
+//! Rooms keep their own grids, so no probe is blended through a wall into the room next door;
+//! light still passes through doors, because the probes' rays do. A point outside every
+//! room's interior (in a doorway, in a wall) reads the nearest room's grid. What a probe's ray
+//! meets on an emitter (a window) is direct light, counted by the direct term, not here.
+//!
+//! What is approximate: the volume is a smooth field sampled every [`VolumeSettings::spacing_m`],
+//! so contact shadows of the indirect light (under a sofa, in a corner) are softer than real;
+//! metals bounce only their diffuse part; on a tilted surface the cube's blend of three faces
+//! is an approximation (exact for axis-aligned ones).
+
+use std::f32::consts::PI;
+use std::fmt::Write as _;
+use std::hash::Hasher as _;
+use std::sync::{Arc, Mutex, OnceLock};
+
+use glam::{Quat, Vec2, Vec3};
+use rayon::prelude::*;
+
+use super::accel::Accel;
+use super::lights::{Blockers, LightSet, ray_epsilon};
+use super::shade::surface_response;
+use super::{GroupRgb, Sampler, Strata};
+use scene_gen_scene::scene::Scene;
+
+/// A pass of the bounce iteration that changes the volume's total radiance by less than this
+/// fraction ends it.
+pub const CONVERGED: f32 = 1e-3;
+/// A pass that changes the total by less than this fraction ends the iteration with the
+/// geometric tail of the bounces left ([`IrradianceVolume::iterate`]): the tail's error is
+/// a small part of a small part.
+const TAIL_START: f32 = 0.03;
+/// Largest ratio of one bounce to the one before that the tail trusts (a white room with no
+/// openings approaches 1; the houses here sit near a half).
+const MAX_BOUNCE_RATIO: f32 = 0.9;
+/// Probes whose rays hit back faces more often than this stand inside a solid and are left
+/// out of every blend (Majercik et al. use a quarter; some house meshes are open shells, so a
+/// little more).
+const MAX_BACKFACE_FRACTION: f32 = 0.3;
+/// Most probes of the one grid of a scene without rooms.
+const MAX_FREE_GRID_PROBES: usize = 8192;
+/// How far the outer probes of a room stand in front of its walls, floor and ceiling, metres.
+const PROBE_INSET_M: f32 = 0.02;
+/// How far a shading point is moved along its normal before the blend, metres: enough to
+/// leave the plane of the probes on its own wall.
+const NORMAL_BIAS_M: f32 = 0.02;
+
+/// How the volume is sampled.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct VolumeSettings {
+    /// Target distance between neighbouring probes, metres (each room gets a whole number of
+    /// cells per axis, at least two).
+    pub spacing_m: f32,
+    /// Rays per probe.
+    pub rays: u32,
+    /// Most passes of the bounce iteration (bounces of the light).
+    pub max_bounces: u32,
+}
+
+impl VolumeSettings {
+    /// 0.6 m probes, 128 rays each, up to 12 bounces: about 3,000 probes and 0.4 M rays in a
+    /// 15 x 15 m house (docs/BENCHMARKS.md, "Global illumination").
+    pub const DEFAULT: VolumeSettings = VolumeSettings { spacing_m: 0.6, rays: 128, max_bounces: 12 };
+}
+
+impl Default for VolumeSettings {
+    fn default() -> Self {
+        VolumeSettings::DEFAULT
+    }
+}
+
+/// Irradiance per channel on the six faces of an ambient cube: +x, -x, +y, -y, +z, -z.
+type Cube = [Vec3; 6];
+/// [`Cube`] per light group.
+type GroupCube = [Cube; 2];
+
+/// How much a ray arriving along `-d` (travelling along `d` away from the probe, i.e. coming
+/// from direction `d`) adds to each face, per unit radiance and steradian: its cosine on the
+/// faces that look towards it.
+#[inline(always)]
+fn cube_weights(d: Vec3) -> [f32; 6] {
+    [d.x.max(0.0), (-d.x).max(0.0), d.y.max(0.0), (-d.y).max(0.0), d.z.max(0.0), (-d.z).max(0.0)]
+}
+
+/// The irradiance a cube gives a surface of unit normal `n`.
+#[inline(always)]
+fn cube_irradiance(cube: &Cube, n: Vec3) -> Vec3 {
+    let pick = |axis: usize, v: f32| if v >= 0.0 { cube[2 * axis] } else { cube[2 * axis + 1] };
+    pick(0, n.x) * (n.x * n.x) + pick(1, n.y) * (n.y * n.y) + pick(2, n.z) * (n.z * n.z)
+}
+
+/// One room's probes: a `dims` grid from `lo` in steps of `step`.
+#[derive(Clone, Debug)]
+struct ProbeGrid {
+    /// The room's interior in the top view (a point inside belongs to this grid).
+    xy_min: Vec2,
+    xy_max: Vec2,
+    lo: Vec3,
+    step: Vec3,
+    dims: [usize; 3],
+    /// Index of the grid's first probe in the volume's lists.
+    first: usize,
+}
+
+impl ProbeGrid {
+    /// The grid over the box `lo..hi` whose outer probes stand [`PROBE_INSET_M`] in front of
+    /// its faces, about `spacing_m` apart. Probes on the faces, not at cell centres: a probe
+    /// inside the room is nearer a bright spot on the ceiling than the floor under it, and
+    /// irradiance falls with distance, so probes set back from the walls and floor would
+    /// overstate their light (by about a fifth on the floor below a ceiling light).
+    fn over(lo: Vec3, hi: Vec3, spacing_m: f32, first: usize) -> ProbeGrid {
+        let inset = Vec3::splat(PROBE_INSET_M).min((hi - lo).max(Vec3::ZERO) * 0.25);
+        let (xy_min, xy_max) = (lo.truncate(), hi.truncate());
+        let (lo, hi) = (lo + inset, hi - inset);
+        let size = (hi - lo).max(Vec3::splat(1e-3));
+        let count = |extent: f32| ((extent / spacing_m).round() as usize + 1).max(2);
+        let dims = [count(size.x), count(size.y), count(size.z)];
+        let step = size / Vec3::new((dims[0] - 1) as f32, (dims[1] - 1) as f32, (dims[2] - 1) as f32);
+        ProbeGrid { xy_min, xy_max, lo, step, dims, first }
+    }
+
+    fn len(&self) -> usize {
+        self.dims.iter().product()
+    }
+
+    /// Position of the grid's `i`-th probe (x fastest, then y, then z).
+    fn position(&self, i: usize) -> Vec3 {
+        let (x, y, z) = (i % self.dims[0], (i / self.dims[0]) % self.dims[1], i / (self.dims[0] * self.dims[1]));
+        self.lo + self.step * Vec3::new(x as f32, y as f32, z as f32)
+    }
+
+    /// Distance in the top view from `p` to the room's interior (0 inside).
+    fn distance_xy(&self, p: Vec3) -> f32 {
+        let q = p.truncate();
+        (self.xy_min - q).max(q - self.xy_max).max(Vec2::ZERO).length()
+    }
+}
+
+/// What one probe ray met: a lit surface, with what it sends back.
+#[derive(Clone, Copy, Debug)]
+struct Gather {
+    /// What the ray adds to each face of the probe's cube per unit radiance
+    /// ([`cube_weights`] times the solid angle it stands for).
+    faces: [f32; 6],
+    position: Vec3,
+    normal: Vec3,
+    /// Diffuse albedo over pi: radiance leaving per unit irradiance.
+    albedo_over_pi: Vec3,
+    /// Radiance leaving the hit towards the probe from direct light alone, per group.
+    direct: GroupRgb,
+    /// The grid the hit reads the volume from.
+    grid: u32,
+}
+
+/// The multi-bounce indirect irradiance of a scene, per light group, at any point and normal.
+#[derive(Clone, Debug)]
+pub struct IrradianceVolume {
+    grids: Vec<ProbeGrid>,
+    positions: Vec<Vec3>,
+    valid: Vec<bool>,
+    /// Per probe, the irradiance of light that bounced at least once.
+    cubes: Vec<GroupCube>,
+    /// Passes the iteration ran (the bounces the light took at most).
+    bounces: u32,
+    /// Rays traced to build it (probe rays and their shadow rays are not told apart).
+    probe_rays: u64,
+}
+
+impl IrradianceVolume {
+    /// Traces and iterates the volume of `scene` (whose BVH is `accel` and lights `lights`, at
+    /// their nominal intensities); random numbers from streams of `seed`. Probes run in
+    /// parallel on the current rayon pool; the result is the same at any thread count.
+    #[must_use]
+    pub fn build(scene: &Scene, accel: &Accel, lights: &LightSet, settings: &VolumeSettings, seed: u64) -> Self {
+        let grids = grids_of(scene, accel, settings.spacing_m.max(0.05));
+        let positions: Vec<Vec3> =
+            grids.iter().flat_map(|g| (0..g.len()).map(move |i| g.position(i))).collect::<Vec<_>>();
+        let rays = settings.rays.max(1);
+        let gathered: Vec<(Vec<Gather>, bool, u32)> = positions
+            .par_iter()
+            .enumerate()
+            .map(|(i, &p)| gather_probe(scene, accel, lights, &grids, p, rays, seed, i as u64))
+            .collect();
+        let valid = gathered.iter().map(|g| g.1).collect();
+        let probe_rays = gathered.iter().map(|g| u64::from(g.2)).sum();
+        let gathers: Vec<Vec<Gather>> = gathered.into_iter().map(|g| g.0).collect();
+        let mut volume = IrradianceVolume {
+            grids,
+            positions,
+            valid,
+            cubes: vec![[[Vec3::ZERO; 6]; 2]; gathers.len()],
+            bounces: 0,
+            probe_rays,
+        };
+        volume.iterate(&gathers, settings.max_bounces);
+        volume
+    }
+
+    /// [`IrradianceVolume::build`], or the volume this process last built for the same scene
+    /// and settings: every candidate camera an optimizer tries in a house reads the same
+    /// light, and the evaluator prepares a renderer per candidate and house. The scene is
+    /// recognised by a fingerprint of everything the build reads (geometry, materials,
+    /// texels, lights, rooms); the last [`CACHED_VOLUMES`] volumes are kept.
+    #[must_use]
+    pub fn shared(scene: &Scene, accel: &Accel, lights: &LightSet, settings: &VolumeSettings, seed: u64) -> Arc<Self> {
+        static CACHE: OnceLock<Mutex<Vec<Keyed>>> = OnceLock::new();
+        let key = fingerprint(scene, settings, seed);
+        let cache = CACHE.get_or_init(|| Mutex::new(Vec::new()));
+        if let Some((_, v)) =
+            cache.lock().unwrap_or_else(std::sync::PoisonError::into_inner).iter().find(|e| e.0 == key)
+        {
+            return Arc::clone(v);
+        }
+        let volume = Arc::new(IrradianceVolume::build(scene, accel, lights, settings, seed));
+        let mut entries = cache.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        if !entries.iter().any(|e| e.0 == key) {
+            if entries.len() >= CACHED_VOLUMES {
+                entries.remove(0);
+            }
+            entries.push((key, Arc::clone(&volume)));
+        }
+        volume
+    }
+
+    /// Runs the bounce passes until a pass adds less than [`CONVERGED`] of the total, then
+    /// adds the bounces not run as a geometric tail.
+    ///
+    /// Pass `k` adds the light of bounce `k`, and once the light has spread through the house
+    /// each bounce is about the same fraction `r` of the one before (the mean albedo weighted
+    /// by how much of each surface's view is other surfaces). The bounces after the last pass
+    /// then sum to its increment times `r / (1 - r)`: Aitken's extrapolation of the series,
+    /// with `r` measured from the last two increments and the tail given the last increment's
+    /// shape. It stops the iteration some passes earlier for the same result.
+    fn iterate(&mut self, gathers: &[Vec<Gather>], max_bounces: u32) {
+        let total = |r: &[GroupCube]| r.iter().flatten().flatten().map(|c| c.element_sum()).sum::<f32>();
+        let mut last_increment = 0.0f32;
+        for pass in 1..=max_bounces.max(1) {
+            let next: Vec<GroupCube> = gathers.par_iter().map(|g| self.project(g)).collect();
+            let previous = std::mem::replace(&mut self.cubes, next);
+            self.bounces = pass;
+            let now = total(&self.cubes);
+            let increment = now - total(&previous);
+            if now <= 0.0 {
+                break;
+            }
+            if increment.abs() <= TAIL_START * now && pass >= 3 && last_increment > 0.0 {
+                let ratio = (increment / last_increment).clamp(0.0, MAX_BOUNCE_RATIO);
+                let tail = ratio / (1.0 - ratio);
+                for (r, p) in self.cubes.iter_mut().zip(&previous) {
+                    for (rg, pg) in r.iter_mut().zip(p) {
+                        for (c, q) in rg.iter_mut().zip(pg) {
+                            *c += (*c - *q) * tail;
+                        }
+                    }
+                }
+                break;
+            }
+            if increment.abs() <= CONVERGED * now {
+                break;
+            }
+            last_increment = increment;
+        }
+    }
+
+    /// One probe's cube from its rays, the hits read from the current volume.
+    fn project(&self, gathers: &[Gather]) -> GroupCube {
+        let mut cube = [[Vec3::ZERO; 6]; 2];
+        for g in gathers {
+            let e = self.irradiance_in(g.grid as usize, g.position, g.normal);
+            for group in 0..2 {
+                let l = g.direct[group] + g.albedo_over_pi * e[group];
+                for (c, w) in cube[group].iter_mut().zip(g.faces) {
+                    *c += l * w;
+                }
+            }
+        }
+        cube
+    }
+
+    /// Indirect irradiance per group (lux per channel) on a surface at `point` facing `normal`.
+    #[must_use]
+    #[inline]
+    pub fn irradiance(&self, point: Vec3, normal: Vec3) -> GroupRgb {
+        match self.grid_of(point) {
+            Some(grid) => self.irradiance_in(grid, point, normal),
+            None => [Vec3::ZERO; 2],
+        }
+    }
+
+    /// The grid of the room whose interior holds `point` in the top view, else the nearest.
+    #[inline]
+    fn grid_of(&self, point: Vec3) -> Option<usize> {
+        let mut best = None;
+        let mut best_d = f32::INFINITY;
+        for (i, g) in self.grids.iter().enumerate() {
+            let d = g.distance_xy(point);
+            if d == 0.0 {
+                return Some(i);
+            }
+            if d < best_d {
+                (best, best_d) = (Some(i), d);
+            }
+        }
+        best
+    }
+
+    /// The blend of grid `grid`'s probes around `point`, evaluated for `normal`.
+    fn irradiance_in(&self, grid: usize, point: Vec3, normal: Vec3) -> GroupRgb {
+        let g = &self.grids[grid];
+        let q = point + normal * NORMAL_BIAS_M;
+        let f = ((q - g.lo) / g.step).max(Vec3::ZERO);
+        let mut base = [0usize; 3];
+        let mut frac = [0.0f32; 3];
+        for axis in 0..3 {
+            let top = (g.dims[axis] - 1) as f32;
+            let fa = f[axis].min(top);
+            base[axis] = (fa.floor() as usize).min(g.dims[axis] - 2);
+            frac[axis] = fa - base[axis] as f32;
+        }
+        let mut sum = [[Vec3::ZERO; 6]; 2];
+        let mut weight_sum = 0.0f32;
+        for corner in 0..8 {
+            let offset = [corner & 1, (corner >> 1) & 1, corner >> 2];
+            let mut w = 1.0f32;
+            for axis in 0..3 {
+                w *= if offset[axis] == 1 { frac[axis] } else { 1.0 - frac[axis] };
+            }
+            let index = g.first
+                + (base[0] + offset[0])
+                + g.dims[0] * ((base[1] + offset[1]) + g.dims[1] * (base[2] + offset[2]));
+            if w <= 0.0 || !self.valid[index] {
+                continue;
+            }
+            // Probes behind the surface weigh less (a smooth back-face weight).
+            let towards = (self.positions[index] - point).normalize_or_zero();
+            let facing = 0.5 * (towards.dot(normal) + 1.0);
+            let w = w * (facing * facing + 0.2);
+            weight_sum += w;
+            for (s, c) in sum.iter_mut().zip(&self.cubes[index]) {
+                for (a, b) in s.iter_mut().zip(c) {
+                    *a += *b * w;
+                }
+            }
+        }
+        if weight_sum <= 0.0 {
+            return [Vec3::ZERO; 2];
+        }
+        sum.map(|cube| (cube_irradiance(&cube, normal) / weight_sum).max(Vec3::ZERO))
+    }
+
+    /// Probes in the volume.
+    #[must_use]
+    pub fn probe_count(&self) -> usize {
+        self.positions.len()
+    }
+
+    /// Probes left out of the blends (inside a solid).
+    #[must_use]
+    pub fn invalid_probe_count(&self) -> usize {
+        self.valid.iter().filter(|v| !**v).count()
+    }
+
+    /// Passes the bounce iteration ran.
+    #[must_use]
+    pub fn bounces(&self) -> u32 {
+        self.bounces
+    }
+
+    /// Probe rays traced (shadow rays of their hits not counted).
+    #[must_use]
+    pub fn probe_rays(&self) -> u64 {
+        self.probe_rays
+    }
+}
+
+/// A volume with the [`fingerprint`] of its scene.
+type Keyed = (u64, Arc<IrradianceVolume>);
+
+/// Volumes [`IrradianceVolume::shared`] keeps (each well under a megabyte).
+pub const CACHED_VOLUMES: usize = 16;
+
+/// A 64-bit digest of what a volume's build reads: the scene's geometry, materials, texels,
+/// lights, rooms and envelope, the settings and the seed.
+fn fingerprint(scene: &Scene, settings: &VolumeSettings, seed: u64) -> u64 {
+    /// Feeds `Debug` output to a hasher without building the string.
+    struct Digest(std::hash::DefaultHasher);
+    impl std::fmt::Write for Digest {
+        fn write_str(&mut self, s: &str) -> std::fmt::Result {
+            self.0.write(s.as_bytes());
+            Ok(())
+        }
+    }
+    let mut d = Digest(std::hash::DefaultHasher::new());
+    let g = &scene.geometry;
+    // Writing into a hasher cannot fail.
+    let _ = write!(
+        d,
+        "{:?}{:?}{:?}{:?}{:?}{:?}{:?}{:?}{seed}",
+        g.meshes, g.materials, g.nodes, scene.lights, scene.rooms, scene.envelope, scene.wall_thickness_m, settings
+    );
+    for texture in &g.textures {
+        d.0.write_u32(texture.width);
+        d.0.write_u32(texture.height);
+        d.0.write(&texture.rgba8);
+    }
+    d.0.finish()
+}
+
+/// One grid per room interior, floor to ceiling; one grid around the geometry for a scene
+/// without rooms.
+fn grids_of(scene: &Scene, accel: &Accel, spacing_m: f32) -> Vec<ProbeGrid> {
+    let mut grids = Vec::new();
+    let mut first = 0;
+    if scene.rooms.is_empty() {
+        let (lo, hi) =
+            accel.positions().iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
+        // Grown by half a spacing, so that no probe sits on a surface at the edge (a lone
+        // floor gets probes above and below it, not in it).
+        let pad = Vec3::splat(0.5 * spacing_m);
+        if lo.cmple(hi).all() {
+            // A scene without rooms can be anything (a 200 m test floor): its spacing grows
+            // until the grid fits the probe budget.
+            let mut spacing = spacing_m;
+            let mut grid = ProbeGrid::over(lo - pad, hi + pad, spacing, 0);
+            while grid.len() > MAX_FREE_GRID_PROBES {
+                spacing *= 1.25;
+                grid = ProbeGrid::over(lo - pad, hi + pad, spacing, 0);
+            }
+            grids.push(grid);
+        }
+        return grids;
+    }
+    let height = scene.envelope.height_m;
+    for room in &scene.rooms {
+        let (lo, hi) = room.interior(scene.wall_thickness_m);
+        let grid = ProbeGrid::over(lo.extend(0.0), hi.extend(height), spacing_m, first);
+        first += grid.len();
+        grids.push(grid);
+    }
+    grids
+}
+
+/// `n` directions evenly over the sphere (a spherical Fibonacci set), turned by `rotation`.
+fn sphere_directions(n: u32, rotation: Quat) -> impl Iterator<Item = Vec3> {
+    const INV_PHI: f64 = 0.618_033_988_749_894_9;
+    (0..n).map(move |i| {
+        let z = 1.0 - (2.0 * i as f32 + 1.0) / n as f32;
+        let r = (1.0 - z * z).max(0.0).sqrt();
+        let phi = std::f32::consts::TAU * (f64::from(i) * INV_PHI).fract() as f32;
+        rotation * Vec3::new(r * phi.cos(), r * phi.sin(), z)
+    })
+}
+
+/// A uniformly random rotation (Shoemake's method, from three uniform numbers).
+fn random_rotation(sampler: &mut Sampler) -> Quat {
+    let (u1, u2, u3) = (sampler.uniform(), sampler.uniform(), sampler.uniform());
+    let (a, b) = ((1.0 - u1).sqrt(), u1.sqrt());
+    let (t2, t3) = (std::f32::consts::TAU * u2, std::f32::consts::TAU * u3);
+    Quat::from_xyzw(a * t2.sin(), a * t2.cos(), b * t3.sin(), b * t3.cos()).normalize()
+}
+
+/// A cone of directions from a probe around a point light, sampled on its own: the surfaces
+/// right next to a bulb (the ceiling above a ceiling light) are the brightest things in a
+/// room at night, hold a large share of the light that bounces, and are small seen from
+/// afar, so the probe's even rays would find them by chance and every probe would carry its
+/// own large error.
+#[derive(Clone, Copy, Debug)]
+struct Cap {
+    axis: Vec3,
+    cos_half_angle: f32,
+    solid_angle_sr: f32,
+}
+
+impl Cap {
+    fn contains(&self, d: Vec3) -> bool {
+        d.dot(self.axis) >= self.cos_half_angle
+    }
+
+    /// The direction of `(u1, u2)` spread uniformly over the cap.
+    fn direction(&self, u1: f32, u2: f32) -> Vec3 {
+        let cos_t = 1.0 - u1 * (1.0 - self.cos_half_angle);
+        let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
+        let (t, b) = self.axis.any_orthonormal_pair();
+        let phi = std::f32::consts::TAU * u2;
+        (t * (sin_t * phi.cos()) + b * (sin_t * phi.sin()) + self.axis * cos_t).normalize_or(self.axis)
+    }
+}
+
+/// Radius around a point light within which the surfaces count as its bright spot, metres:
+/// a bulb 0.1 m under a ceiling puts 86 % of its upward light within 0.7 m of its foot.
+const HOT_SPOT_RADIUS_M: f32 = 0.75;
+/// How many times denser than the even rays a cap is sampled.
+const CAP_DENSITY: f32 = 8.0;
+/// Fewest rays in a cap.
+const MIN_CAP_RAYS: u32 = 8;
+
+/// The caps of the probe at `p`: one per point light that can reach its room, holding the
+/// sphere of [`HOT_SPOT_RADIUS_M`] about the light (the whole sphere of directions for a
+/// probe inside it).
+fn caps_at(lights: &LightSet, p: Vec3) -> Vec<Cap> {
+    lights
+        .reach
+        .lights_at(p)
+        .points
+        .iter()
+        .filter_map(|&i| {
+            let to_light = lights.points[i as usize].position - p;
+            let d = to_light.length();
+            let axis = to_light.normalize_or_zero();
+            if axis == Vec3::ZERO {
+                return None;
+            }
+            let cos_half_angle =
+                if d <= HOT_SPOT_RADIUS_M { -1.0 } else { (1.0 - (HOT_SPOT_RADIUS_M / d).powi(2)).max(0.0).sqrt() };
+            Some(Cap { axis, cos_half_angle, solid_angle_sr: std::f32::consts::TAU * (1.0 - cos_half_angle) })
+        })
+        .collect()
+}
+
+/// The rays of the probe at `p`: what each lit surface it meets sends back, and whether the
+/// probe stands in free space (few back faces).
+///
+/// The sphere of directions is split into the caps around its point lights ([`Cap`]) and the
+/// rest. The rest takes the even rays that fall outside every cap, each weighing `4 pi / rays`;
+/// each cap takes its own rays, uniform over it, each weighing the cap's solid angle over its
+/// ray count, less those inside an earlier cap. Both parts are unbiased estimates of their
+/// share of the sphere, so the sum is one of the whole.
+#[allow(clippy::too_many_arguments)]
+fn gather_probe(
+    scene: &Scene,
+    accel: &Accel,
+    lights: &LightSet,
+    grids: &[ProbeGrid],
+    p: Vec3,
+    rays: u32,
+    seed: u64,
+    key: u64,
+) -> (Vec<Gather>, bool, u32) {
+    let mut sampler = Sampler::new(seed, "render/irradiance-volume", key);
+    let blockers = Blockers::default();
+    let rotation = random_rotation(&mut sampler);
+    let caps = caps_at(lights, p);
+    let mut probe = ProbeRays { scene, accel, lights, grids, p, gathers: Vec::new(), traced: 0 };
+    let even_weight = 4.0 * PI / rays as f32;
+    let mut even_backfaces = 0u32;
+    for dir in sphere_directions(rays, rotation) {
+        let backface = if caps.iter().any(|c| c.contains(dir)) {
+            probe.backface(dir)
+        } else {
+            probe.trace(dir, even_weight, &mut sampler, &blockers)
+        };
+        even_backfaces += u32::from(backface);
+    }
+    for (k, cap) in caps.iter().enumerate() {
+        let even_rays_inside = rays as f32 * cap.solid_angle_sr / (4.0 * PI);
+        let count = ((even_rays_inside * CAP_DENSITY).ceil() as u32).max(MIN_CAP_RAYS);
+        let weight = cap.solid_angle_sr / count as f32;
+        let strata = Strata { first: 0, stride: 1, total: count, rotation: sampler.uniform() };
+        for i in 0..count {
+            let (u1, u2) = strata.point(i, &mut sampler);
+            let dir = cap.direction(u1, u2);
+            if !caps[..k].iter().any(|c| c.contains(dir)) {
+                probe.trace(dir, weight, &mut sampler, &blockers);
+            }
+        }
+    }
+    // Judged on the even rays alone: the caps crowd their rays round a lamp, whose shade's
+    // inside is a back face seen through its opening.
+    let valid = (even_backfaces as f32) <= MAX_BACKFACE_FRACTION * rays as f32;
+    (probe.gathers, valid, probe.traced)
+}
+
+/// One probe's rays as they are traced.
+struct ProbeRays<'a> {
+    scene: &'a Scene,
+    accel: &'a Accel,
+    lights: &'a LightSet,
+    grids: &'a [ProbeGrid],
+    p: Vec3,
+    gathers: Vec<Gather>,
+    traced: u32,
+}
+
+impl ProbeRays<'_> {
+    /// Whether the ray along `dir` meets a back face first (traced only for the count).
+    fn backface(&mut self, dir: Vec3) -> bool {
+        self.traced += 1;
+        self.accel.closest_hit(self.p, dir, f32::INFINITY).is_some_and(|h| self.accel.face_normal(h.triangle).dot(dir) > 0.0)
+    }
+
+    /// Traces the ray along `dir`, which stands for `weight` steradians of the sphere; whether
+    /// it met a back face. A back face is still shaded (the renderer is two-sided: the inside
+    /// of a lamp shade is lit), but many of them mean the probe is inside a solid.
+    fn trace(&mut self, dir: Vec3, weight: f32, sampler: &mut Sampler, blockers: &Blockers) -> bool {
+        self.traced += 1;
+        let Some(hit) = self.accel.closest_hit(self.p, dir, f32::INFINITY) else { return false };
+        let backface = self.accel.face_normal(hit.triangle).dot(dir) > 0.0;
+        if self.lights.emitter_seen(self.p, dir, hit.t).is_some() {
+            return backface;
+        }
+        let surface = self.accel.surface(&hit, self.p, dir);
+        let albedo = surface_response(self.scene, &surface).diffuse;
+        if albedo == Vec3::ZERO {
+            return backface;
+        }
+        let (position, ng, ns) = (surface.position, surface.geometric_normal, surface.shading_normal);
+        let e = self.lights.direct(
+            self.accel,
+            position,
+            ng,
+            ns,
+            1,
+            Strata::independent(sampler),
+            super::DEFAULT_LIGHT_CULL,
+            sampler,
+            blockers,
+        );
+        let albedo_over_pi = albedo / PI;
+        let lifted = position + ng * ray_epsilon(position);
+        self.gathers.push(Gather {
+            faces: cube_weights(dir).map(|v| v * weight),
+            position: lifted,
+            normal: ns,
+            albedo_over_pi,
+            direct: [e[0] * albedo_over_pi, e[1] * albedo_over_pi],
+            grid: nearest_grid(self.grids, lifted) as u32,
+        });
+        backface
+    }
+}
+
+/// [`IrradianceVolume::grid_of`] before the volume exists.
+fn nearest_grid(grids: &[ProbeGrid], p: Vec3) -> usize {
+    let mut best = (0, f32::INFINITY);
+    for (i, g) in grids.iter().enumerate() {
+        let d = g.distance_xy(p);
+        if d == 0.0 {
+            return i;
+        }
+        if d < best.1 {
+            best = (i, d);
+        }
+    }
+    best.0
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A constant radiance `L` over the sphere gives irradiance `pi L` on every normal; `L`
+    /// on the upper hemisphere only gives `pi L` facing up, nothing facing down and `pi L / 2`
+    /// facing sideways, on the cube's faces exactly (up to the ray set's quadrature).
+    #[test]
+    fn the_cube_integrates_the_clamped_cosine() {
+        let n = 4096;
+        let w = 4.0 * PI / n as f32;
+        let project = |f: &dyn Fn(Vec3) -> f32| {
+            let mut cube = [Vec3::ZERO; 6];
+            for d in sphere_directions(n, Quat::IDENTITY) {
+                for (c, k) in cube.iter_mut().zip(cube_weights(d)) {
+                    *c += Vec3::splat(f(d) * k * w);
+                }
+            }
+            cube
+        };
+        let uniform = project(&|_| 1.0);
+        for normal in [Vec3::X, Vec3::NEG_Y, Vec3::new(0.3, -0.4, 0.866).normalize()] {
+            let e = cube_irradiance(&uniform, normal).x;
+            assert!((e - PI).abs() < 1e-3 * PI, "{normal}: {e}");
+        }
+        let sky = project(&|d| if d.z > 0.0 { 1.0 } else { 0.0 });
+        assert!((cube_irradiance(&sky, Vec3::Z).x - PI).abs() < 1e-3 * PI);
+        assert_eq!(cube_irradiance(&sky, Vec3::NEG_Z).x, 0.0, "a floor never sees its own light");
+        assert!((cube_irradiance(&sky, Vec3::X).x - PI / 2.0).abs() < 1e-3 * PI);
+    }
+
+    #[test]
+    fn fibonacci_directions_are_unit_and_balanced() {
+        let mut sampler = Sampler::new(3, "t", 1);
+        let dirs: Vec<Vec3> = sphere_directions(256, random_rotation(&mut sampler)).collect();
+        assert!(dirs.iter().all(|d| (d.length() - 1.0).abs() < 1e-5));
+        let mean = dirs.iter().copied().sum::<Vec3>() / dirs.len() as f32;
+        assert!(mean.length() < 0.01, "mean direction {mean}");
+    }
+
+    #[test]
+    fn grids_span_the_box_just_inside_its_faces() {
+        let g = ProbeGrid::over(Vec3::ZERO, Vec3::new(5.0, 3.0, 3.0), 0.6, 7);
+        assert_eq!(g.dims, [9, 6, 6]);
+        assert_eq!(g.len(), 324);
+        assert!((g.position(0) - Vec3::splat(0.02)).length() < 1e-5);
+        let last = g.position(g.len() - 1);
+        assert!((last - Vec3::new(4.98, 2.98, 2.98)).length() < 1e-5, "{last}");
+        assert_eq!(g.distance_xy(Vec3::new(2.0, 1.0, 9.0)), 0.0);
+        assert!((g.distance_xy(Vec3::new(6.0, 1.0, 0.0)) - 1.0).abs() < 1e-6);
+    }
+}
