@@ -613,7 +613,9 @@ impl ProbeRays<'_> {
     /// Whether the ray along `dir` meets a back face first (traced only for the count).
     fn backface(&mut self, dir: Vec3) -> bool {
         self.traced += 1;
-        self.accel.closest_hit(self.p, dir, f32::INFINITY).is_some_and(|h| self.accel.face_normal(h.triangle).dot(dir) > 0.0)
+        self.accel
+            .closest_hit(self.p, dir, f32::INFINITY)
+            .is_some_and(|h| self.accel.face_normal(h.triangle).dot(dir) > 0.0)
     }
 
     /// Traces the ray along `dir`, which stands for `weight` steradians of the sphere; whether

@@ -1,0 +1,18 @@
+#!/bin/bash
+# scene-gen's global illumination against Mitsuba 3's path tracer, one view per room of a house.
+#   bash examples/mitsuba/setup.sh                                  # once: .venv-mitsuba + libLLVM 19
+#   bash examples/mitsuba/run_gi_compare.sh [OUT] [SEED] [gi_compare.py options, e.g. --spp 256]
+# Prints the volume's build, the per-room table and PASS/FAIL on the 5 % gate (exit status 1).
+set -euo pipefail
+cd "$(dirname "$0")/../.."
+out=${1:-/tmp/scene-gen-gi}
+seed=${2:-7}
+shift 2 || shift $# || true
+export DRJIT_LIBLLVM_PATH=${DRJIT_LIBLLVM_PATH:-/usr/lib/x86_64-linux-gnu/libLLVM-19.so}
+cargo build --release --quiet --example gi_views --bin scene-gen
+target/release/scene-gen --seed "$seed" --format obj --out "$out/obj" > /dev/null
+target/release/examples/gi_views --seed "$seed" --out "$out/views"
+echo "load before: $(uptime)"
+.venv-mitsuba/bin/python examples/mitsuba/gi_compare.py --views "$out/views" --obj "$out/obj/scene.obj" \
+    --out "$out/mitsuba" "$@"
+echo "load after: $(uptime)"
