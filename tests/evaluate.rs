@@ -50,39 +50,19 @@ fn the_default_camera_sees_thresholds_and_one_looking_up_sees_fewer() {
 }
 
 #[test]
-fn on_the_same_camera_night_scores_no_higher_than_day() {
+fn day_and_night_are_both_scored_with_the_same_geometry() {
     for camera in [DEFAULT_CAMERA, "IMX172"] {
-        // 320 px: on 3 usable frames of one house the default camera's day and night tie on
-        // AP and thresholds and are split by a few inliers (fitness 1.5085 / 1.5093 at 160 px,
-        // 1.776 / 1.782 at 240 px; 1.865 / 1.855 here).
+        // 320 px, 3 usable frames of one house. Which scenario scores higher is not asserted:
+        // on so few frames day and night tie on AP and thresholds and a few inliers split
+        // them, and over four houses the default camera still scores a little higher by night
+        // (docs/BENCHMARKS.md, "Detection: day versus night": night frames hold more ORB
+        // inliers, with the sensor noise off too).
         let e = eval(camera, &EvalConfig { min_usable_images: Some(0), max_width_px: Some(320), ..small() });
         let (day, night) = (&e.scenarios.day, &e.scenarios.night);
         assert!(day.mean_inliers > 0.0 && day.ap50 > 0.0, "{camera}: the day image is usable: {day:?}");
         // The ISP brings the night image to the day's brightness: ORB finds features at night.
         assert!(night.mean_keypoints > 0.0 && night.mean_inliers > 0.0, "{camera}: night {night:?}");
         assert_eq!(day.threshold_accuracy, night.threshold_accuracy, "geometric");
-        // Detection AP is not asserted here. The detector's inversion is fixed: it measured the
-        // renderer's day sampling noise as camera noise (day 0.74 vs night 0.97 on the default
-        // camera, houses 0 and 1, 320 px) and now divides by the camera's own noise table
-        // (scene_gen::detection::output_noise); tests/detection.rs checks day >= night on the
-        // camera's own sensor and ISP. On rendered houses the order still depends on what the
-        // preview render leaves in the day frames (no bounce light, one area-light sample per
-        // pixel), not on the camera: day / night 0.80 / 0.70 (IMX174) and 1.00 / 0.80 (IMX172)
-        // here on house 0, but 0.86 / 0.88 and 0.84 / 0.86 on house 1 (module docs of
-        // scene_gen::evaluate, "Day versus night"). An assertion that holds on one house and
-        // not the next proves nothing.
-        // Inliers are not ordered either. Since each view draws its own render noise, the
-        // few-hundred-pixel frames here have about as many night inliers as day ones, and the
-        // EMVA model's fixed pattern (DSNU, PRNU, row and column offsets), amplified by the
-        // night gain, stays on the same pixels from frame to frame, where a translating
-        // camera's fundamental matrix accepts it: IMX172 at 320 px, day / night 76 / 123
-        // inliers on 194 / 455 keypoints. On the evaluator's benchmark case (1936 px, houses 0
-        // and 1, the default camera) it is 307 / 235.
-        // The inlier ratio is not ordered: the fewer night features are the stronger ones, and
-        // on 6 anchors IMX172's ratio came out 0.339 at night against 0.320 by day.
-        // Usable images are not asserted either: by day the preview render leaves more of the
-        // frame black (no bounce light off window-lit walls), so day can have fewer usable frames.
-        assert!(e.fitness.night <= e.fitness.day, "{camera}: {:?}", e.fitness);
         assert_eq!(day.frames, 6);
         let mean = 0.5 * (e.fitness.day + e.fitness.night);
         assert!((e.fitness.mean - mean).abs() < 1e-12);

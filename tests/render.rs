@@ -398,7 +398,11 @@ fn bounced_light_conserves_energy_in_a_closed_room() {
             let lit = Renderer::new(&scene, RenderSettings::preview());
             let want = flux_lm / ((1.0 - albedo) * area);
             let what = format!("every bounce, albedo {albedo}, room {as_room}");
-            assert_close(mean_face_illuminance(&lit), want, 0.03, &what);
+            // As a room the probes stand 2 cm in front of the faces; without rooms the grid
+            // runs past the geometry and its probes stand anywhere, a few valid ones outside
+            // the box (measured: within 1.6 % as a room, 3.6 % without).
+            let tolerance = if as_room { 0.03 } else { 0.05 };
+            assert_close(mean_face_illuminance(&lit), want, tolerance, &what);
         }
     }
 }
@@ -654,9 +658,8 @@ fn rendering_into_a_used_frame_gives_the_fresh_frame() {
 fn decoupled_shading_applies_only_where_configured() {
     let scene = room_of_boxes(Vec3::new(6.0, 5.0, 2.6), 4);
     let cam = Camera { pixel_pitch_um: 20.0, ..camera(48, 32, Vec3::new(0.5, 0.5, 1.6), 40.0, -20.0) };
-    let full = Renderer::new(&scene, RenderSettings::preview()).render(&cam).unwrap();
-    let narrow =
-        RenderSettings { shading: ShadingRate::Decoupled { stride: 2, min_width_px: 49 }, ..RenderSettings::preview() };
+    let full = Renderer::new(&scene, direct_preview()).render(&cam).unwrap();
+    let narrow = RenderSettings { shading: ShadingRate::Decoupled { stride: 2, min_width_px: 49 }, ..direct_preview() };
     assert!(Renderer::new(&scene, narrow).render(&cam).unwrap() == full, "narrower than min_width_px: full rate");
     assert!(Renderer::new(&scene, decoupled(1)).render(&cam).unwrap() == full, "stride 1 is full rate");
     let standard = RenderSettings { shading: decoupled(2).shading, ..RenderSettings::standard() };
