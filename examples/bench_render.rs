@@ -562,6 +562,7 @@ fn run_case(setup: &Setup, args: &Args, case: &str) -> BoxResult<()> {
                 samples_per_axis: axis,
                 rect_samples_per_axis: 1,
                 indirect_rays: 0,
+                indirect_volume: None,
                 specular: false,
                 light_cull: 0.0,
                 ..RenderSettings::preview()
@@ -702,7 +703,7 @@ fn main() -> BoxResult<()> {
     let renderer = Renderer::new(&setup.scene, RenderSettings::standard());
     let accel = renderer.accel();
     println!(
-        "house seed {SEED}: {} triangles, generated in {:.0} ms, BVH built in {:.0} ms; {SENSOR} at pose {POSE_INDEX} {:?}",
+        "house seed {SEED}: {} triangles, generated in {:.0} ms, BVH and irradiance volume built in {:.0} ms; {SENSOR} at pose {POSE_INDEX} {:?}",
         accel.triangle_count(),
         generate_s * 1e3,
         start.elapsed().as_secs_f64() * 1e3,
