@@ -487,7 +487,7 @@ fn random_rotation(sampler: &mut Sampler) -> Quat {
     Quat::from_xyzw(a * t2.sin(), a * t2.cos(), b * t3.sin(), b * t3.cos()).normalize()
 }
 
-/// A cone of directions from a probe around a point light, sampled on its own: the surfaces
+/// A cone of directions from a probe around a point light, sampled on its own ([`HOT_SPOTS`]): the surfaces
 /// right next to a bulb (the ceiling above a ceiling light) are the brightest things in a
 /// room at night, hold a large share of the light that bounces, and are small seen from
 /// afar, so the probe's even rays would find them by chance and every probe would carry its
@@ -497,6 +497,8 @@ struct Cap {
     axis: Vec3,
     cos_half_angle: f32,
     solid_angle_sr: f32,
+    /// How many times denser than the even rays the cap is sampled.
+    density: f32,
 }
 
 impl Cap {
@@ -514,33 +516,36 @@ impl Cap {
     }
 }
 
-/// Radius around a point light within which the surfaces count as its bright spot, metres:
-/// a bulb 0.1 m under a ceiling puts 86 % of its upward light within 0.7 m of its foot.
-const HOT_SPOT_RADIUS_M: f32 = 0.75;
-/// How many times denser than the even rays a cap is sampled.
-const CAP_DENSITY: f32 = 8.0;
+/// Radii around a point light, metres, of the spheres whose caps are sampled apart, and how
+/// many times denser than the even rays: a bulb 0.1 m under a ceiling puts 63 % of its upward
+/// light within 0.25 m of its foot and 87 % within 0.75 m, and the light falls as the inverse
+/// square of the distance from the bulb, so the inner cap takes the densest rays. Sparser caps
+/// left the estimate heavy-tailed, usually low: on seed 7 at night, one cap of 8 gave two rooms
+/// 4 % less light than one of 32.
+const HOT_SPOTS: [(f32, f32); 2] = [(0.25, 32.0), (0.75, 8.0)];
 /// Fewest rays in a cap.
 const MIN_CAP_RAYS: u32 = 8;
 
-/// The caps of the probe at `p`: one per point light that can reach its room, holding the
-/// sphere of [`HOT_SPOT_RADIUS_M`] about the light (the whole sphere of directions for a
-/// probe inside it).
+/// The caps of the probe at `p`: for each point light that can reach its room and each of
+/// [`HOT_SPOTS`], the cap holding that sphere about the light (the whole sphere of directions
+/// for a probe inside it); all inner caps first, so a direction near a light belongs to the
+/// densest cap that holds it.
 fn caps_at(lights: &LightSet, p: Vec3) -> Vec<Cap> {
-    lights
-        .reach
-        .lights_at(p)
-        .points
+    let points = &lights.reach.lights_at(p).points;
+    HOT_SPOTS
         .iter()
-        .filter_map(|&i| {
-            let to_light = lights.points[i as usize].position - p;
-            let d = to_light.length();
-            let axis = to_light.normalize_or_zero();
-            if axis == Vec3::ZERO {
-                return None;
-            }
-            let cos_half_angle =
-                if d <= HOT_SPOT_RADIUS_M { -1.0 } else { (1.0 - (HOT_SPOT_RADIUS_M / d).powi(2)).max(0.0).sqrt() };
-            Some(Cap { axis, cos_half_angle, solid_angle_sr: std::f32::consts::TAU * (1.0 - cos_half_angle) })
+        .flat_map(|&(radius_m, density)| {
+            points.iter().filter_map(move |&i| {
+                let to_light = lights.points[i as usize].position - p;
+                let d = to_light.length();
+                let axis = to_light.normalize_or_zero();
+                if axis == Vec3::ZERO {
+                    return None;
+                }
+                let cos_half_angle = if d <= radius_m { -1.0 } else { (1.0 - (radius_m / d).powi(2)).max(0.0).sqrt() };
+                let solid_angle_sr = std::f32::consts::TAU * (1.0 - cos_half_angle);
+                Some(Cap { axis, cos_half_angle, solid_angle_sr, density })
+            })
         })
         .collect()
 }
@@ -581,7 +586,7 @@ fn gather_probe(
     }
     for (k, cap) in caps.iter().enumerate() {
         let even_rays_inside = rays as f32 * cap.solid_angle_sr / (4.0 * PI);
-        let count = ((even_rays_inside * CAP_DENSITY).ceil() as u32).max(MIN_CAP_RAYS);
+        let count = ((even_rays_inside * cap.density).ceil() as u32).max(MIN_CAP_RAYS);
         let weight = cap.solid_angle_sr / count as f32;
         let strata = Strata { first: 0, stride: 1, total: count, rotation: sampler.uniform() };
         for i in 0..count {
