@@ -54,9 +54,9 @@ fn day_and_night_are_both_scored_with_the_same_geometry() {
     for camera in [DEFAULT_CAMERA, "IMX172"] {
         // 320 px, 3 usable frames of one house. Which scenario scores higher is not asserted:
         // on so few frames day and night tie on AP and thresholds and a few inliers split
-        // them, and over four houses the default camera still scores a little higher by night
-        // (docs/BENCHMARKS.md, "Detection: day versus night": night frames hold more ORB
-        // inliers, with the sensor noise off too).
+        // them. Over four houses day scores higher, by detection, while night frames hold more
+        // ORB inliers, with the sensor noise off too (docs/BENCHMARKS.md, "Detection: day
+        // versus night").
         let e = eval(camera, &EvalConfig { min_usable_images: Some(0), max_width_px: Some(320), ..small() });
         let (day, night) = (&e.scenarios.day, &e.scenarios.night);
         assert!(day.mean_inliers > 0.0 && day.ap50 > 0.0, "{camera}: the day image is usable: {day:?}");
