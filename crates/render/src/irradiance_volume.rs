@@ -184,7 +184,7 @@ struct Gather {
 #[derive(Clone, Debug)]
 pub struct IrradianceVolume {
     grids: Vec<ProbeGrid>,
-    positions: Vec<Vec3>,
+    /// Per probe (grid by grid, in each grid's order), whether it stands in free space.
     valid: Vec<bool>,
     /// Per probe, the irradiance of light that bounced at least once.
     cubes: Vec<GroupCube>,
@@ -212,14 +212,8 @@ impl IrradianceVolume {
         let valid = gathered.iter().map(|g| g.1).collect();
         let probe_rays = gathered.iter().map(|g| u64::from(g.2)).sum();
         let gathers: Vec<Vec<Gather>> = gathered.into_iter().map(|g| g.0).collect();
-        let mut volume = IrradianceVolume {
-            grids,
-            positions,
-            valid,
-            cubes: vec![[[Vec3::ZERO; 6]; 2]; gathers.len()],
-            bounces: 0,
-            probe_rays,
-        };
+        let mut volume =
+            IrradianceVolume { grids, valid, cubes: vec![[[Vec3::ZERO; 6]; 2]; gathers.len()], bounces: 0, probe_rays };
         volume.iterate(&gathers, settings.max_bounces);
         volume
     }
@@ -309,27 +303,10 @@ impl IrradianceVolume {
     #[must_use]
     #[inline]
     pub fn irradiance(&self, point: Vec3, normal: Vec3) -> GroupRgb {
-        match self.grid_of(point) {
+        match grid_of(&self.grids, point) {
             Some(grid) => self.irradiance_in(grid, point, normal),
             None => [Vec3::ZERO; 2],
         }
-    }
-
-    /// The grid of the room whose interior holds `point` in the top view, else the nearest.
-    #[inline]
-    fn grid_of(&self, point: Vec3) -> Option<usize> {
-        let mut best = None;
-        let mut best_d = f32::INFINITY;
-        for (i, g) in self.grids.iter().enumerate() {
-            let d = g.distance_xy(point);
-            if d == 0.0 {
-                return Some(i);
-            }
-            if d < best_d {
-                (best, best_d) = (Some(i), d);
-            }
-        }
-        best
     }
 
     /// The blend of grid `grid`'s probes around `point`, evaluated for `normal`.
@@ -353,14 +330,14 @@ impl IrradianceVolume {
             for axis in 0..3 {
                 w *= if offset[axis] == 1 { frac[axis] } else { 1.0 - frac[axis] };
             }
-            let index = g.first
-                + (base[0] + offset[0])
-                + g.dims[0] * ((base[1] + offset[1]) + g.dims[1] * (base[2] + offset[2]));
+            let cell = [base[0] + offset[0], base[1] + offset[1], base[2] + offset[2]];
+            let index = g.first + cell[0] + g.dims[0] * (cell[1] + g.dims[1] * cell[2]);
             if w <= 0.0 || !self.valid[index] {
                 continue;
             }
             // Probes behind the surface weigh less (a smooth back-face weight).
-            let towards = (self.positions[index] - point).normalize_or_zero();
+            let probe = g.lo + g.step * Vec3::new(cell[0] as f32, cell[1] as f32, cell[2] as f32);
+            let towards = (probe - point).normalize_or_zero();
             let facing = 0.5 * (towards.dot(normal) + 1.0);
             let w = w * (facing * facing + 0.2);
             weight_sum += w;
@@ -379,7 +356,7 @@ impl IrradianceVolume {
     /// Probes in the volume.
     #[must_use]
     pub fn probe_count(&self) -> usize {
-        self.positions.len()
+        self.valid.len()
     }
 
     /// Probes left out of the blends (inside a solid).
@@ -519,9 +496,8 @@ impl Cap {
 /// Radii around a point light, metres, of the spheres whose caps are sampled apart, and how
 /// many times denser than the even rays: a bulb 0.1 m under a ceiling puts 63 % of its upward
 /// light within 0.25 m of its foot and 87 % within 0.75 m, and the light falls as the inverse
-/// square of the distance from the bulb, so the inner cap takes the densest rays. Sparser caps
-/// left the estimate heavy-tailed, usually low: on seed 7 at night, one cap of 8 gave two rooms
-/// 4 % less light than one of 32.
+/// square of the distance from the bulb, so the inner cap takes the densest rays. With one
+/// sparser cap the estimate is heavy-tailed: usually low, now and then one probe far too bright.
 const HOT_SPOTS: [(f32, f32); 2] = [(0.25, 32.0), (0.75, 8.0)];
 /// Fewest rays in a cap.
 const MIN_CAP_RAYS: u32 = 8;
@@ -658,25 +634,27 @@ impl ProbeRays<'_> {
             normal: ns,
             albedo_over_pi,
             direct: [e[0] * albedo_over_pi, e[1] * albedo_over_pi],
-            grid: nearest_grid(self.grids, lifted) as u32,
+            grid: grid_of(self.grids, lifted).unwrap_or(0) as u32,
         });
         backface
     }
 }
 
-/// [`IrradianceVolume::grid_of`] before the volume exists.
-fn nearest_grid(grids: &[ProbeGrid], p: Vec3) -> usize {
-    let mut best = (0, f32::INFINITY);
+/// The grid of the room whose interior holds `point` in the top view, else the nearest;
+/// `None` only without grids.
+#[inline]
+fn grid_of(grids: &[ProbeGrid], point: Vec3) -> Option<usize> {
+    let mut best: Option<(usize, f32)> = None;
     for (i, g) in grids.iter().enumerate() {
-        let d = g.distance_xy(p);
+        let d = g.distance_xy(point);
         if d == 0.0 {
-            return i;
+            return Some(i);
         }
-        if d < best.1 {
-            best = (i, d);
+        if best.is_none_or(|(_, best_d)| d < best_d) {
+            best = Some((i, d));
         }
     }
-    best.0
+    best.map(|(i, _)| i)
 }
 
 #[cfg(test)]
