@@ -35,24 +35,40 @@ struct Args {
     volume: VolumeSettings,
 }
 
-fn parse() -> BoxResult<Args> {
+/// The value of `flag`, parsed, or a message naming the flag.
+fn number<T: std::str::FromStr>(flag: &str, text: &str) -> Result<T, String> {
+    text.parse().map_err(|_| format!("{flag} {text}: not a valid number"))
+}
+
+fn parse() -> Result<Args, String> {
     let mut args = Args { seed: 7, width: 160, height: 120, out: None, volume: VolumeSettings::DEFAULT };
     let mut it = std::env::args().skip(1);
     while let Some(flag) = it.next() {
         let mut value = || it.next().ok_or_else(|| format!("{flag} needs a value"));
         match flag.as_str() {
-            "--seed" => args.seed = value()?.parse()?,
+            "--seed" => args.seed = number(&flag, &value()?)?,
             "--res" => {
                 let v = value()?;
                 let (w, h) = v.split_once('x').ok_or_else(|| format!("--res {v}: expected WxH"))?;
-                (args.width, args.height) = (w.parse()?, h.parse()?);
+                (args.width, args.height) = (number(&flag, w)?, number(&flag, h)?);
+                if args.width == 0 || args.height == 0 {
+                    return Err(format!("--res {v}: width and height must be at least 1"));
+                }
             }
             "--out" => args.out = Some(value()?.into()),
-            "--spacing" => args.volume.spacing_m = value()?.parse()?,
-            "--rays" => args.volume.rays = value()?.parse()?,
-            "--bounces" => args.volume.max_bounces = value()?.parse()?,
-            _ => return Err(format!("unknown argument {flag}").into()),
+            "--spacing" => {
+                args.volume.spacing_m = number(&flag, &value()?)?;
+                if args.volume.spacing_m.is_nan() || args.volume.spacing_m < 0.05 {
+                    return Err(format!("--spacing {}: at least 0.05 m", args.volume.spacing_m));
+                }
+            }
+            "--rays" => args.volume.rays = number(&flag, &value()?)?,
+            "--bounces" => args.volume.max_bounces = number(&flag, &value()?)?,
+            _ => return Err(format!("unknown argument {flag}")),
         }
+    }
+    if args.volume.rays == 0 || args.volume.max_bounces == 0 {
+        return Err("--rays and --bounces must be at least 1".into());
     }
     Ok(args)
 }
@@ -108,7 +124,11 @@ fn write_f32(path: &std::path::Path, radiance: &[[f32; 3]]) -> BoxResult<()> {
 }
 
 fn main() -> BoxResult<()> {
-    let args = parse()?;
+    // Bad arguments: the message and exit status 2, before any work.
+    let args = parse().unwrap_or_else(|e| {
+        eprintln!("error: {e}");
+        std::process::exit(2)
+    });
     let scene = generate(&GeneratorConfig { seed: args.seed, ..GeneratorConfig::default() }, &Library::embedded()?)?;
     // Four pixel samples, every light traced, so the views' own noise stays small.
     let base = RenderSettings { light_cull: 0.0, rect_samples_per_axis: 3, ..RenderSettings::standard() };
@@ -149,23 +169,6 @@ fn main() -> BoxResult<()> {
             std::fs::write(out.join(format!("room_{room}.json")), json)?;
         }
         println!("{line}");
-        if std::env::var("SG_DEBUG_PIXEL").is_ok() && room == 0 {
-            let f = &frames[1].1;
-            for (x, y) in [(68u32, 50u32), (70, 55), (60, 50), (40, 90)] {
-                let i = (y * f.width + x) as usize;
-                let (fw, r, u) = camera.basis();
-                let px = (x as f32 + 0.5 - f.width as f32 / 2.0) * camera.pixel_pitch_um * 1e-3;
-                let py = (f.height as f32 / 2.0 - y as f32 - 0.5) * camera.pixel_pitch_um * 1e-3;
-                let d = (fw * camera.focal_mm + r * px + u * py).normalize();
-                let p = camera.position + d * f.depth_m[i];
-                let n = Vec3::from(f.normal[i]);
-                let e = volume.irradiance(p, n);
-                eprintln!(
-                    "px {x},{y} p {p} n {n} inst {} class {} night {:?} E_ind {:?}",
-                    f.instance_id[i], f.class_id[i], f.night_nit[i], e[1]
-                );
-            }
-        }
     }
     Ok(())
 }

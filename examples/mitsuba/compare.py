@@ -48,14 +48,11 @@ import mitsuba as mi
 mi.set_variant("llvm_ad_rgb")
 
 
-def read_mtl(obj_path):
-    """(glass material names, {material: texture path}) of the scene.mtl beside an OBJ export.
-
-    A material is glass when scene-gen's `is_transparent` says so: its name starts with `glass`
-    or its alpha `d` < 0.5.
-    """
+def read_materials(obj_path):
+    """{material name: {"Kd", "Pm", "Pr", "d", "map"}} of the scene.mtl beside an OBJ export
+    (scene-gen writes Kd, d, the PBR keys Pr and Pm, and map_Kd; a missing key is the default)."""
     folder = os.path.dirname(obj_path)
-    glass, textures, name = set(), {}, None
+    materials, name = {}, None
     with open(os.path.join(folder, "scene.mtl")) as f:
         for line in f:
             parts = line.split()
@@ -63,13 +60,26 @@ def read_mtl(obj_path):
                 continue
             if parts[0] == "newmtl":
                 name = parts[1]
-                # Names are m<index:03>_<material name>.
-                if name.split("_", 1)[-1].startswith("glass"):
-                    glass.add(name)
-            elif parts[0] == "d" and float(parts[1]) < 0.5:
-                glass.add(name)
+                materials[name] = {"Kd": [1.0, 1.0, 1.0], "Pm": 0.0, "Pr": 1.0, "d": 1.0, "map": None}
+            elif parts[0] == "Kd":
+                materials[name]["Kd"] = [float(v) for v in parts[1:4]]
+            elif parts[0] in ("Pm", "Pr", "d"):
+                materials[name][parts[0]] = float(parts[1])
             elif parts[0] == "map_Kd":
-                textures[name] = os.path.join(folder, parts[1])
+                materials[name]["map"] = os.path.join(folder, parts[1])
+    return materials
+
+
+def read_mtl(obj_path):
+    """(glass material names, {material: texture path}) of the scene.mtl beside an OBJ export.
+
+    A material is glass when scene-gen's `is_transparent` says so: its name starts with `glass`
+    or its alpha `d` < 0.5.
+    """
+    materials = read_materials(obj_path)
+    # Names are m<index:03>_<material name>.
+    glass = {n for n, m in materials.items() if n.split("_", 1)[-1].startswith("glass") or m["d"] < 0.5}
+    textures = {n: m["map"] for n, m in materials.items() if m["map"] is not None}
     return glass, textures
 
 

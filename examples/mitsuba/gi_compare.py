@@ -45,32 +45,9 @@ import mitsuba as mi  # noqa: E402
 
 mi.set_variant("llvm_ad_rgb")
 
-from compare import load_obj_by_material, write_ply_textured  # noqa: E402
+from compare import load_obj_by_material, read_materials, write_ply_textured  # noqa: E402
 
 LUMA = np.array([0.2126, 0.7152, 0.0722])
-
-
-def read_materials(obj_path):
-    """{material name: (Kd, Pm, Pr, texture path or None)} of the scene.mtl beside the OBJ."""
-    folder = os.path.dirname(obj_path)
-    out, name = {}, None
-    with open(os.path.join(folder, "scene.mtl")) as f:
-        for line in f:
-            parts = line.split()
-            if not parts:
-                continue
-            if parts[0] == "newmtl":
-                name = parts[1]
-                out[name] = {"Kd": [1.0, 1.0, 1.0], "Pm": 0.0, "Pr": 1.0, "map": None}
-            elif parts[0] == "Kd":
-                out[name]["Kd"] = [float(v) for v in parts[1:4]]
-            elif parts[0] == "Pm":
-                out[name]["Pm"] = float(parts[1])
-            elif parts[0] == "Pr":
-                out[name]["Pr"] = float(parts[1])
-            elif parts[0] == "map_Kd":
-                out[name]["map"] = os.path.join(folder, parts[1])
-    return out
 
 
 def diffuse_reflectance(material, out, k):
@@ -199,8 +176,18 @@ def main():
     ap.add_argument("--depth", type=int, default=16)
     ap.add_argument("--tolerance", type=float, default=0.05)
     args = ap.parse_args()
+    # Bad input: a message and exit status 2 before anything is written.
+    scene_json = os.path.join(os.path.dirname(args.obj), "scene.json")
+    for path in (args.obj, scene_json, os.path.join(os.path.dirname(args.obj), "scene.mtl")):
+        if not os.path.isfile(path):
+            ap.error(f"{path}: no such file (export the house with `scene-gen --format obj`)")
+    if not os.path.isdir(args.views) or not any(f.startswith("room_") and f.endswith(".json")
+                                                for f in os.listdir(args.views)):
+        ap.error(f"--views {args.views}: no room_<r>.json (write it with `gi_views --out`)")
+    if args.spp < 2 or args.depth < 1:
+        ap.error("--spp must be at least 2 (two halves) and --depth at least 1")
     os.makedirs(args.out, exist_ok=True)
-    lights = json.load(open(os.path.join(os.path.dirname(args.obj), "scene.json")))["lights"]
+    lights = json.load(open(scene_json))["lights"]
     shapes = house_shapes(args.obj, args.out)
     print(f"mitsuba {mi.__version__}, variant {mi.variant()}, path max_depth {args.depth}, {args.spp} spp", flush=True)
     rooms = sorted(int(f[5:-5]) for f in os.listdir(args.views) if f.startswith("room_") and f.endswith(".json"))
