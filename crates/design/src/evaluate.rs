@@ -1085,7 +1085,8 @@ mod tests {
             let resolved = spec.resolve(&Catalog::embedded()).unwrap();
             let params = TrajectoryParams { height_m: resolved.spec.height_m, ..TrajectoryParams::default() };
             let WalkedHouse { scene, walk } = scene_gen_scene::house::walked_house(&library, 1, &params).unwrap();
-            let renderer = Renderer::new(&scene, RenderSettings::preview());
+            // Ids only: no light, so no irradiance volume to trace.
+            let renderer = Renderer::new(&scene, RenderSettings { indirect_volume: None, ..RenderSettings::preview() });
             let ids: BTreeSet<u32> = scene.thresholds.iter().map(|t| t.instance_id).collect();
             let mut seen = 0;
             for c in &walk.crossings {
