@@ -28,7 +28,9 @@
 //! * `pair`: the day + night pair at `--res` (light scaling measured once, outside the time);
 //! * `speckle`: a `preview` day frame with light culling threshold `--cull` (default 0.1) and
 //!   its speckle (see [`speckle`]): how noisy the culling roulette leaves a one-sample frame;
-//! * `eval`: a frame with the evaluator's settings (`evaluate::eval_render_settings`);
+//! * `eval`: a frame with the evaluator's settings (`evaluate::eval_render_settings`), the
+//!   irradiance volume traced beforehand (outside the time);
+//! * `eval_direct`: the same frame without the volume (direct light only), its peer;
 //! * `decoupled`: a `preview` frame (culling `--cull`, `--rect` x `--rect` rect samples) at full
 //!   shading rate and with [`ShadingRate::Decoupled`] at `--stride` (default 2; with `--refine`,
 //!   [`ShadingRate::Adaptive`] at that fine stride), each timed
@@ -609,8 +611,10 @@ fn run_case(setup: &Setup, args: &Args, case: &str) -> BoxResult<()> {
                 }),
             )
         }
-        "eval" => {
-            let eval = Renderer::new(&setup.scene, scene_gen::evaluate::eval_render_settings());
+        "eval" | "eval_direct" => {
+            let settings = scene_gen::evaluate::eval_render_settings();
+            let settings = if case == "eval" { settings } else { RenderSettings { indirect_volume: None, ..settings } };
+            let eval = Renderer::new(&setup.scene, settings);
             let (times, frame) = timed(|| pool.install(|| eval.render(&camera)));
             (times, 0, serde_json::json!({ "frame_fnv": frame_hash(&frame?) }))
         }
@@ -685,7 +689,8 @@ fn run_case(setup: &Setup, args: &Args, case: &str) -> BoxResult<()> {
 }
 
 /// The workloads of `--case`, checked before the house is built.
-const CASES: [&str; 9] = ["primary", "shadow", "direct", "pair", "speckle", "eval", "labels", "ids", "decoupled"];
+const CASES: [&str; 10] =
+    ["primary", "shadow", "direct", "pair", "speckle", "eval", "eval_direct", "labels", "ids", "decoupled"];
 
 fn main() -> BoxResult<()> {
     // Bad arguments: the message and exit status 2, before any work.

@@ -3,7 +3,7 @@
 //! (examples/mitsuba/gi_compare.py).
 //!
 //! ```text
-//! cargo run --release --example gi_views -- [--seed 7] [--res 160x120] [--out DIR] [--spacing M] [--rays N] [--bounces N]
+//! cargo run --release --example gi_views -- [--seed 7] [--res 160x120] [--out DIR] [--spacing M] [--rays N] [--bounces N] [--render-seed N]
 //! ```
 //!
 //! Prints one JSON line per room: the view's mean luminance (nit, nominal light intensities)
@@ -33,6 +33,8 @@ struct Args {
     height: u32,
     out: Option<PathBuf>,
     volume: VolumeSettings,
+    /// Seed of the render's random streams (the volume's rays among them).
+    render_seed: Option<u64>,
 }
 
 /// The value of `flag`, parsed, or a message naming the flag.
@@ -41,7 +43,8 @@ fn number<T: std::str::FromStr>(flag: &str, text: &str) -> Result<T, String> {
 }
 
 fn parse() -> Result<Args, String> {
-    let mut args = Args { seed: 7, width: 160, height: 120, out: None, volume: VolumeSettings::DEFAULT };
+    let mut args =
+        Args { seed: 7, width: 160, height: 120, out: None, volume: VolumeSettings::DEFAULT, render_seed: None };
     let mut it = std::env::args().skip(1);
     while let Some(flag) = it.next() {
         let mut value = || it.next().ok_or_else(|| format!("{flag} needs a value"));
@@ -64,6 +67,7 @@ fn parse() -> Result<Args, String> {
             }
             "--rays" => args.volume.rays = number(&flag, &value()?)?,
             "--bounces" => args.volume.max_bounces = number(&flag, &value()?)?,
+            "--render-seed" => args.render_seed = Some(number(&flag, &value()?)?),
             _ => return Err(format!("unknown argument {flag}")),
         }
     }
@@ -131,7 +135,9 @@ fn main() -> BoxResult<()> {
     });
     let scene = generate(&GeneratorConfig { seed: args.seed, ..GeneratorConfig::default() }, &Library::embedded()?)?;
     // Four pixel samples, every light traced, so the views' own noise stays small.
-    let base = RenderSettings { light_cull: 0.0, rect_samples_per_axis: 3, ..RenderSettings::standard() };
+    let standard = RenderSettings::standard();
+    let seed = args.render_seed.unwrap_or(standard.seed);
+    let base = RenderSettings { light_cull: 0.0, rect_samples_per_axis: 3, seed, ..standard };
     let direct = Renderer::new(&scene, RenderSettings { indirect_volume: None, ..base });
     let t0 = Instant::now();
     let lit = Renderer::new(&scene, RenderSettings { indirect_volume: Some(args.volume), ..base });

@@ -29,9 +29,15 @@ error of each mean, and per-pixel statistics on 4x4-pixel blocks (median and 90t
 of |ours - ref| / ref over blocks whose reference is above 5 % of the image mean, with the
 same statistic between Mitsuba's two halves as the noise floor). Gate: every image mean and
 every room's mean within `--tolerance` (default 5 %) with the volume; exit status 1 otherwise.
+
+Mitsuba's renders are kept in `--out` (`mitsuba_room_<r>_<lighting>.npz`, with a digest of the
+house, the view, spp, depth and Mitsuba's version); `--reuse` reads them back where the digest
+matches, so other volume settings or render seeds (`gi_views --render-seed`) are compared in
+seconds.
 """
 
 import argparse
+import hashlib
 import json
 import os
 import sys
@@ -152,6 +158,18 @@ def render_halves(shapes, emitters, cam, spp, depth):
     return halves[0], halves[1]
 
 
+def reference_key(obj_path, cam, spp, depth):
+    """What a Mitsuba render depends on: the house's OBJ, MTL and lights, the view, spp and depth."""
+    digest = hashlib.sha256()
+    base = os.path.dirname(obj_path)
+    for path in (obj_path, os.path.join(base, "scene.mtl"), os.path.join(base, "scene.json")):
+        with open(path, "rb") as f:
+            digest.update(f.read())
+    digest.update(json.dumps(cam, sort_keys=True).encode())
+    digest.update(f"{spp}/{depth}/{mi.__version__}".encode())
+    return digest.hexdigest()
+
+
 def blocks(lum, b=4):
     h, w = lum.shape[0] // b * b, lum.shape[1] // b * b
     return lum[:h, :w].reshape(h // b, b, w // b, b).mean(axis=(1, 3))
@@ -175,6 +193,8 @@ def main():
     ap.add_argument("--spp", type=int, default=256)
     ap.add_argument("--depth", type=int, default=16)
     ap.add_argument("--tolerance", type=float, default=0.05)
+    ap.add_argument("--reuse", action="store_true",
+                    help="reuse Mitsuba renders an earlier run left in --out for the same house, view, spp and depth")
     args = ap.parse_args()
     # Bad input: a message and exit status 2 before anything is written.
     scene_json = os.path.join(os.path.dirname(args.obj), "scene.json")
@@ -201,11 +221,18 @@ def main():
         }
         for lighting, parts in scenes.items():
             t0 = time.perf_counter()
-            a, b = np.zeros((h, w, 3)), np.zeros((h, w, 3))
-            for emitters in parts:
-                pa, pb = render_halves(shapes, emitters, cam, args.spp, args.depth)
-                a, b = a + pa, b + pb
-            seconds = time.perf_counter() - t0
+            cached = os.path.join(args.out, f"mitsuba_room_{room}_{lighting}.npz")
+            key = reference_key(args.obj, cam, args.spp, args.depth)
+            stored = np.load(cached) if args.reuse and os.path.isfile(cached) else None
+            if stored is not None and str(stored["key"]) == key:
+                a, b, seconds = stored["a"], stored["b"], float(stored["seconds"])
+            else:
+                a, b = np.zeros((h, w, 3)), np.zeros((h, w, 3))
+                for emitters in parts:
+                    pa, pb = render_halves(shapes, emitters, cam, args.spp, args.depth)
+                    a, b = a + pa, b + pb
+                seconds = time.perf_counter() - t0
+                np.savez(cached, a=a, b=b, key=key, seconds=seconds)
             ref = 0.5 * (a + b) @ LUMA
             row = {"room": room, "lighting": lighting, "mitsuba_nit": float(ref.mean()), "mitsuba_s": round(seconds, 1),
                    "noise_floor": pixel_stats(a @ LUMA, b @ LUMA)}

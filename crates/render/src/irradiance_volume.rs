@@ -86,8 +86,9 @@ pub struct VolumeSettings {
 }
 
 impl VolumeSettings {
-    /// 0.6 m probes, 128 rays each, up to 12 bounces: about 3,000 probes and 0.4 M rays in a
-    /// 15 x 15 m house (docs/BENCHMARKS.md, "Global illumination").
+    /// 0.6 m probes, 128 even rays each (and the caps round the lamps), up to 12 bounces:
+    /// 4,266 probes and 1.36 M probe rays in house 7 (docs/BENCHMARKS.md, "Global
+    /// illumination").
     pub const DEFAULT: VolumeSettings = VolumeSettings { spacing_m: 0.6, rays: 128, max_bounces: 12 };
 }
 
@@ -108,13 +109,6 @@ type GroupCube = [Cube; 2];
 #[inline(always)]
 fn cube_weights(d: Vec3) -> [f32; 6] {
     [d.x.max(0.0), (-d.x).max(0.0), d.y.max(0.0), (-d.y).max(0.0), d.z.max(0.0), (-d.z).max(0.0)]
-}
-
-/// The irradiance a cube gives a surface of unit normal `n`.
-#[inline(always)]
-fn cube_irradiance(cube: &Cube, n: Vec3) -> Vec3 {
-    let pick = |axis: usize, v: f32| if v >= 0.0 { cube[2 * axis] } else { cube[2 * axis + 1] };
-    pick(0, n.x) * (n.x * n.x) + pick(1, n.y) * (n.y * n.y) + pick(2, n.z) * (n.z * n.z)
 }
 
 /// One room's probes: a `dims` grid from `lo` in steps of `step`.
@@ -180,6 +174,63 @@ struct Gather {
     grid: u32,
 }
 
+/// What a probe ray's hit needs in the bounce passes: [`Gather`] with the blend it reads.
+#[derive(Clone, Copy, Debug)]
+struct Bounce {
+    faces: [f32; 6],
+    albedo_over_pi: Vec3,
+    direct: GroupRgb,
+    blend: Blend,
+}
+
+/// How a surface reads the volume ([`IrradianceVolume::blend_in`]): up to eight probes with
+/// weights summing to one (zero weight for a corner left out), and the three cube faces its
+/// normal sees with their squared cosines (a surface of normal `n` reads
+/// `n_x^2 E(+-x) + n_y^2 E(+-y) + n_z^2 E(+-z)`).
+#[derive(Clone, Copy, Debug)]
+struct Blend {
+    probes: [u32; 8],
+    weights: [f32; 8],
+    faces: [u8; 3],
+    face_weights: [f32; 3],
+}
+
+impl Blend {
+    /// A blend of no probes for a surface facing `n`.
+    fn facing(n: Vec3) -> Blend {
+        let face = |axis: u8, v: f32| if v >= 0.0 { 2 * axis } else { 2 * axis + 1 };
+        Blend {
+            probes: [0; 8],
+            weights: [0.0; 8],
+            faces: [face(0, n.x), face(1, n.y), face(2, n.z)],
+            face_weights: [n.x * n.x, n.y * n.y, n.z * n.z],
+        }
+    }
+
+    /// The irradiance per group the blend gives from `cubes`.
+    #[inline]
+    fn read(&self, cubes: &[GroupCube]) -> GroupRgb {
+        let mut e = [Vec3::ZERO; 2];
+        for (&probe, &w) in self.probes.iter().zip(&self.weights) {
+            if w == 0.0 {
+                continue;
+            }
+            for (eg, cube) in e.iter_mut().zip(&cubes[probe as usize]) {
+                *eg += self.seen(cube) * w;
+            }
+        }
+        e.map(|v| v.max(Vec3::ZERO))
+    }
+
+    /// The irradiance one cube gives the surface.
+    #[inline(always)]
+    fn seen(&self, cube: &Cube) -> Vec3 {
+        cube[usize::from(self.faces[0])] * self.face_weights[0]
+            + cube[usize::from(self.faces[1])] * self.face_weights[1]
+            + cube[usize::from(self.faces[2])] * self.face_weights[2]
+    }
+}
+
 /// The multi-bounce indirect irradiance of a scene, per light group, at any point and normal.
 #[derive(Clone, Debug)]
 pub struct IrradianceVolume {
@@ -211,11 +262,31 @@ impl IrradianceVolume {
             .collect();
         let valid = gathered.iter().map(|g| g.1).collect();
         let probe_rays = gathered.iter().map(|g| u64::from(g.2)).sum();
-        let gathers: Vec<Vec<Gather>> = gathered.into_iter().map(|g| g.0).collect();
-        let mut volume =
-            IrradianceVolume { grids, valid, cubes: vec![[[Vec3::ZERO; 6]; 2]; gathers.len()], bounces: 0, probe_rays };
-        volume.iterate(&gathers, settings.max_bounces);
+        let mut volume = IrradianceVolume {
+            grids,
+            valid,
+            cubes: vec![[[Vec3::ZERO; 6]; 2]; gathered.len()],
+            bounces: 0,
+            probe_rays,
+        };
+        // Which probes each hit reads depends on the probes' validity, known only now; the
+        // passes then only re-weigh cubes.
+        let bounces: Vec<Vec<Bounce>> = gathered
+            .into_par_iter()
+            .map(|(gathers, _, _)| gathers.into_iter().map(|g| volume.bounce_of(&g)).collect())
+            .collect();
+        volume.iterate(&bounces, settings.max_bounces);
         volume
+    }
+
+    /// What the bounce passes need of a probe ray's hit.
+    fn bounce_of(&self, g: &Gather) -> Bounce {
+        Bounce {
+            faces: g.faces,
+            albedo_over_pi: g.albedo_over_pi,
+            direct: g.direct,
+            blend: self.blend_in(g.grid as usize, g.position, g.normal),
+        }
     }
 
     /// [`IrradianceVolume::build`], or the volume this process last built for the same scene
@@ -253,11 +324,11 @@ impl IrradianceVolume {
     /// then sum to its increment times `r / (1 - r)`: Aitken's extrapolation of the series,
     /// with `r` measured from the last two increments and the tail given the last increment's
     /// shape. It stops the iteration some passes earlier for the same result.
-    fn iterate(&mut self, gathers: &[Vec<Gather>], max_bounces: u32) {
+    fn iterate(&mut self, bounces: &[Vec<Bounce>], max_bounces: u32) {
         let total = |r: &[GroupCube]| r.iter().flatten().flatten().map(|c| c.element_sum()).sum::<f32>();
         let mut last_increment = 0.0f32;
         for pass in 1..=max_bounces.max(1) {
-            let next: Vec<GroupCube> = gathers.par_iter().map(|g| self.project(g)).collect();
+            let next: Vec<GroupCube> = bounces.par_iter().map(|b| self.project(b)).collect();
             let previous = std::mem::replace(&mut self.cubes, next);
             self.bounces = pass;
             let now = total(&self.cubes);
@@ -285,10 +356,10 @@ impl IrradianceVolume {
     }
 
     /// One probe's cube from its rays, the hits read from the current volume.
-    fn project(&self, gathers: &[Gather]) -> GroupCube {
+    fn project(&self, bounces: &[Bounce]) -> GroupCube {
         let mut cube = [[Vec3::ZERO; 6]; 2];
-        for g in gathers {
-            let e = self.irradiance_in(g.grid as usize, g.position, g.normal);
+        for g in bounces {
+            let e = g.blend.read(&self.cubes);
             for group in 0..2 {
                 let l = g.direct[group] + g.albedo_over_pi * e[group];
                 for (c, w) in cube[group].iter_mut().zip(g.faces) {
@@ -311,6 +382,13 @@ impl IrradianceVolume {
 
     /// The blend of grid `grid`'s probes around `point`, evaluated for `normal`.
     fn irradiance_in(&self, grid: usize, point: Vec3, normal: Vec3) -> GroupRgb {
+        self.blend_in(grid, point, normal).read(&self.cubes)
+    }
+
+    /// Which of grid `grid`'s probes a surface at `point` facing `normal` reads, and how: the
+    /// eight around it trilinearly, less those inside solids, probes behind the surface
+    /// weighing less.
+    fn blend_in(&self, grid: usize, point: Vec3, normal: Vec3) -> Blend {
         let g = &self.grids[grid];
         let q = point + normal * NORMAL_BIAS_M;
         let f = ((q - g.lo) / g.step).max(Vec3::ZERO);
@@ -322,7 +400,7 @@ impl IrradianceVolume {
             base[axis] = (fa.floor() as usize).min(g.dims[axis] - 2);
             frac[axis] = fa - base[axis] as f32;
         }
-        let mut sum = [[Vec3::ZERO; 6]; 2];
+        let mut blend = Blend::facing(normal);
         let mut weight_sum = 0.0f32;
         for corner in 0..8 {
             let offset = [corner & 1, (corner >> 1) & 1, corner >> 2];
@@ -341,16 +419,13 @@ impl IrradianceVolume {
             let facing = 0.5 * (towards.dot(normal) + 1.0);
             let w = w * (facing * facing + 0.2);
             weight_sum += w;
-            for (s, c) in sum.iter_mut().zip(&self.cubes[index]) {
-                for (a, b) in s.iter_mut().zip(c) {
-                    *a += *b * w;
-                }
-            }
+            blend.probes[corner] = index as u32;
+            blend.weights[corner] = w;
         }
-        if weight_sum <= 0.0 {
-            return [Vec3::ZERO; 2];
+        if weight_sum > 0.0 {
+            blend.weights = blend.weights.map(|w| w / weight_sum);
         }
-        sum.map(|cube| (cube_irradiance(&cube, normal) / weight_sum).max(Vec3::ZERO))
+        blend
     }
 
     /// Probes in the volume.
@@ -660,6 +735,10 @@ fn grid_of(grids: &[ProbeGrid], point: Vec3) -> Option<usize> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn cube_irradiance(cube: &Cube, n: Vec3) -> Vec3 {
+        Blend::facing(n).seen(cube)
+    }
 
     /// A constant radiance `L` over the sphere gives irradiance `pi L` on every normal; `L`
     /// on the upper hemisphere only gives `pi L` facing up, nothing facing down and `pi L / 2`
