@@ -42,7 +42,7 @@ pub use scene_gen_camera::{
     view,
 };
 pub use scene_gen_core::{io, rng, seeds, simd, stats};
-pub use scene_gen_design::{dataset, evaluate, optimize, plot, progress, serve};
+pub use scene_gen_design::{dataset, evaluate, optimize, plot, progress, serve, true_matches};
 pub use scene_gen_export as export;
 pub use scene_gen_measure::{calibration, gap, target};
 pub use scene_gen_perception::{detection, orb};

@@ -79,7 +79,7 @@ fn more_noise_lowers_orb_inliers_and_detection() {
     // floor is off so both scenarios are scored on everything.
     // The affine noise model (temporal noise only): the EMVA model's fixed pattern, which a
     // 30x shorter exposure raises against the signal, stays on the same pixels from frame to
-    // frame and is matched as features (day inliers 16 -> 53 with it here, on 42 -> 271
+    // frame and is matched as features (day RANSAC inliers 16 -> 53 with it here, on 42 -> 271
     // keypoints), which is what ORB on a real camera's raw frames would do too.
     let config = EvalConfig { min_usable_images: Some(0), ..small() };
     let clean = eval("IMX172,noise=affine", &config);
@@ -94,6 +94,25 @@ fn more_noise_lowers_orb_inliers_and_detection() {
     assert!(n.ap50 < c.ap50, "day AP50 {} vs {}", n.ap50, c.ap50);
     let (c, n) = (&clean.scenarios.night, &noisy.scenarios.night);
     assert!(n.ap50 < c.ap50, "night AP50 {} vs {}", n.ap50, c.ap50);
+}
+
+#[test]
+fn only_matches_the_ground_truth_confirms_count_as_inliers() {
+    let config = EvalConfig { min_usable_images: Some(0), ..small() };
+    // On clean frames most RANSAC inliers are true matches; a wrong projection (pixel centre
+    // convention, depth along the axis instead of the ray, the wrong pose) confirms almost none.
+    let clean = eval("IMX172,noise=off", &config);
+    for s in [&clean.scenarios.day, &clean.scenarios.night] {
+        assert!(s.mean_inliers <= s.mean_ransac_inliers, "{s:?}");
+        assert!(s.mean_inliers >= 0.6 * s.mean_ransac_inliers, "{s:?}");
+    }
+    // A 30x shorter exposure at night: the noise makes corners of its own, and RANSAC accepts
+    // many chance matches between them that lie near their epipolar lines (here half of its
+    // inliers); the ground truth confirms a far smaller share than on clean frames.
+    let noisy = eval("IMX172,exposure_s=0.001", &config);
+    let (c, n) = (&clean.scenarios.night, &noisy.scenarios.night);
+    let share = |s: &scene_gen::evaluate::ScenarioScore| s.mean_inliers / s.mean_ransac_inliers.max(1.0);
+    assert!(share(n) < 0.75 * share(c), "noisy {n:?}\nclean {c:?}");
 }
 
 #[test]
@@ -226,7 +245,16 @@ fn json_output_has_exactly_the_documented_keys() {
     assert_eq!(v["config"]["output"], serde_json::json!("isp"));
     for s in ["day", "night"] {
         let sc = &v["scenarios"][s];
-        for k in ["threshold_accuracy", "ap50", "mean_inliers", "inlier_ratio", "frames", "usable_images", "fitness"] {
+        for k in [
+            "threshold_accuracy",
+            "ap50",
+            "mean_inliers",
+            "mean_ransac_inliers",
+            "inlier_ratio",
+            "frames",
+            "usable_images",
+            "fitness",
+        ] {
             assert!(sc[k].is_number(), "{s}.{k}");
         }
         assert!(sc["threshold_only"].is_boolean());

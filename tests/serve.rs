@@ -39,7 +39,7 @@ fn a_server_answers_every_line_in_order_survives_bad_requests_and_caches() {
     stdout.read_line(&mut first).unwrap();
     let describe: Value = serde_json::from_str(&first).unwrap();
     assert_eq!((describe["id"].as_str(), describe["ok"].as_bool()), (Some("d"), Some(true)));
-    assert_eq!(describe["protocol"], "scene-gen/serve/1");
+    assert_eq!(describe["protocol"], "scene-gen/serve/2");
     assert!(describe["sensors"].as_array().unwrap().iter().any(|s| s == "IMX174"));
     assert_eq!(describe["defaults"]["frames"], 2);
     assert_eq!(describe["defaults"]["max_width"], 64);

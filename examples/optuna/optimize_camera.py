@@ -22,7 +22,7 @@ import sys
 
 import optuna
 
-PROTOCOL = "scene-gen/serve/1"
+PROTOCOL = "scene-gen/serve/2"
 
 
 class ServeError(RuntimeError):

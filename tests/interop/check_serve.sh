@@ -25,7 +25,7 @@ cmp -s "$tmp/stdout" "$tmp/best.toml" || { echo "FAIL: printed TOML differs from
 import json, sys
 summary = json.load(open(sys.argv[1]))
 ev = json.load(open(sys.argv[2]))
-assert summary["protocol"] == "scene-gen/serve/1", summary["protocol"]
+assert summary["protocol"] == "scene-gen/serve/2", summary["protocol"]
 assert summary["trials"] == 4 and summary["completed"] == 4, summary
 assert summary["cached"] >= 1, f"the repeated candidate must come from the server's cache: {summary}"
 assert summary["best_fitness"]["mean"] > 0, f"the enqueued camera scores > 0 at this budget: {summary}"

@@ -40,7 +40,11 @@
 //!   anchors' 8-bit PNGs with a COCO ground-truth file beside them (`{gt}` in the command).
 //! * **ORB** (2000 features, cross-checked matches, fundamental RANSAC at 3 px) on each
 //!   (anchor, successor) pair: mean inliers per pair and the mean inlier ratio
-//!   `inliers / (inliers + keypoints)`, keypoints of the anchor frame.
+//!   `inliers / (inliers + keypoints)`, keypoints of the anchor frame. An inlier counts when
+//!   the ground truth confirms it ([`crate::true_matches`]: the anchor's depth and the
+//!   successor's pose put the match within the same 3 px), so chance matches that happen to
+//!   fit the epipolar geometry, which grow with image noise, earn nothing; every RANSAC
+//!   inlier is reported beside it (`mean_ransac_inliers`).
 //! * **Usable images**: anchors whose 8-bit image is neither nearly black nor saturated (mean
 //!   in [[`USABLE_MIN_MEAN`], [`USABLE_MAX_MEAN`]], fewer than
 //!   [`USABLE_MAX_CLIPPED_FRACTION`] of the pixels at 0 or 255) and that hold at least one
@@ -76,6 +80,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::progress::Progress;
+use crate::true_matches::{PairTruth, TRUE_MATCH_TOLERANCE_PX};
 use scene_gen_camera::camera_spec::{CameraSpec, ResolvedCamera, SpecError};
 use scene_gen_camera::capture::{Capture, CaptureError, PerceptionImage, scenario_name};
 use scene_gen_camera::isp::OutputRule;
@@ -90,7 +95,7 @@ use scene_gen_perception::detection::{
     frame_ground_truth,
 };
 use scene_gen_perception::orb::{FundamentalRansac, Orb, match_and_verify};
-use scene_gen_render::{Frame, RenderError, RenderSettings, Renderer, ShadingRate};
+use scene_gen_render::{Camera, Frame, RenderError, RenderSettings, Renderer, ShadingRate};
 use scene_gen_scene::house::{HouseError, HouseOptions, WalkedHouse, load_library, walked_house_with};
 use scene_gen_scene::library::Library;
 use scene_gen_scene::scene::{LightGroup, ObjectClass, Scene, THRESHOLD_CLASS_ID, THRESHOLD_CLASS_NAME};
@@ -122,7 +127,7 @@ pub const DEFAULT_MIN_USABLE_FRACTION: f64 = 0.5;
 
 /// Frames at least this wide are shaded at anchors ([`ShadingRate::Adaptive`]) by the evaluator:
 /// all of them. Full-rate shading makes a 320 px candidate about 10x dearer (24 against 2.4
-/// user-s on the default camera, houses 0 and 1) for day / night inliers of 147 / 132 against
+/// user-s on the default camera, houses 0 and 1) for day / night RANSAC inliers of 147 / 132 against
 /// 118 / 120 and the same AP (docs/BENCHMARKS.md, "Adaptive anchors").
 pub const EVAL_DECOUPLED_MIN_WIDTH_PX: u32 = 0;
 /// Anchor spacing of the evaluator's decoupled shading, pixels.
@@ -151,7 +156,7 @@ pub const EVAL_VISIBILITY_FILTER_RADIUS: u32 = 2;
 /// the features and detections respond to. Since each view draws its own random numbers
 /// ([`scene_gen_render::Camera::view_key`]), render noise is new in every frame, as a real
 /// scene's is not, and it costs ORB inliers: on the default camera at 1936 px (seeds 0..2),
-/// one window sample and culling gave 103 day inliers per pair where 16 samples per anchor
+/// one window sample and culling gave 103 day RANSAC inliers per pair where 16 samples per anchor
 /// give 360. Four per anchor pooled over their neighbours at stride 4 give 341 (night 228 of
 /// 233) in 29.8 s (docs/BENCHMARKS.md, "Render noise and ORB inliers").
 ///
@@ -286,7 +291,14 @@ pub struct ScenarioScore {
     /// AP@0.5 of the detector (built-in or external); 0 when no frame had ground truth.
     pub ap50: f64,
     pub ground_truth_objects: usize,
+    /// Mean per ORB pair of the RANSAC inliers the ground truth confirms: the successor
+    /// keypoint lies within 3 px of where the anchor keypoint's surface point images
+    /// ([`crate::true_matches`]). Chance matches that fit the epipolar geometry do not count.
     pub mean_inliers: f64,
+    /// Mean per pair of every RANSAC inlier, confirmed or not (what a tracker without ground
+    /// truth would count).
+    pub mean_ransac_inliers: f64,
+    /// Mean per pair of `confirmed inliers / (confirmed inliers + anchor keypoints)`.
     pub inlier_ratio: f64,
     pub mean_keypoints: f64,
     /// Anchor frames scored.
@@ -522,7 +534,7 @@ const THRESHOLD_BOX_MARGIN_M: f32 = 0.01;
 /// centres, so the same counts, for a small fraction of the rays of a whole frame.
 fn threshold_pixels_in_boxes(
     renderer: &Renderer<'_>,
-    camera: &scene_gen_render::Camera,
+    camera: &Camera,
     thresholds: &[scene_gen_scene::scene::Threshold],
 ) -> Result<Vec<(u32, u32)>, RenderError> {
     let margin = glam::Vec3::splat(THRESHOLD_BOX_MARGIN_M);
@@ -564,6 +576,10 @@ struct PoseResult {
     detections: Vec<Vec<Detection>>,
     /// Per scenario: the anchor's image is usable.
     usable: Vec<bool>,
+    /// The pinhole the pose was rendered through (anchors and successors).
+    camera: Option<Camera>,
+    /// The anchor's depth per pixel, for the ground truth of its ORB pair.
+    depth_m: Vec<f32>,
     /// Thread-seconds: render, sensor, detection.
     times: [f64; 3],
 }
@@ -574,6 +590,7 @@ struct Acc {
     seen: u32,
     missed: u32,
     inliers: f64,
+    ransac_inliers: f64,
     ratio: f64,
     keypoints: f64,
     pairs: usize,
@@ -722,6 +739,8 @@ fn render_pose(
     house.capture.render_into(&camera, &mut frame)?;
     let mut out = PoseResult {
         thresholds: threshold_pixels(&frame.class_id, &frame.instance_id, &house.threshold_ids),
+        camera: Some(camera),
+        depth_m: if role == Role::Anchor { frame.depth_m.clone() } else { Vec::new() },
         time_s,
         times: [secs(t0), 0.0, 0.0],
         ..PoseResult::default()
@@ -766,14 +785,21 @@ fn render_pose(
     Ok(out)
 }
 
-/// ORB on each (anchor, successor) pair of each scenario, in parallel: per job `(scenario,
-/// inliers, inlier ratio, anchor keypoints, thread-seconds)`.
-fn orb_pairs(
-    seed: u64,
-    anchors: &[usize],
-    by_pose: &BTreeMap<usize, PoseResult>,
-    (w, h): (u32, u32),
-) -> Vec<(usize, f64, f64, f64, f64)> {
+/// ORB on one (anchor, successor) pair of one scenario.
+struct OrbPair {
+    scenario: usize,
+    /// RANSAC inliers the ground truth confirms ([`crate::true_matches`]).
+    inliers: f64,
+    /// Every RANSAC inlier, confirmed or not.
+    ransac_inliers: f64,
+    /// `inliers / (inliers + anchor keypoints)`.
+    ratio: f64,
+    keypoints: f64,
+    thread_s: f64,
+}
+
+/// ORB on each (anchor, successor) pair of each scenario, in parallel.
+fn orb_pairs(seed: u64, anchors: &[usize], by_pose: &BTreeMap<usize, PoseResult>, (w, h): (u32, u32)) -> Vec<OrbPair> {
     let orb = Orb::with_features(ORB_FEATURES);
     let jobs: Vec<(usize, usize)> = (0..SCENARIO_GROUPS.len())
         .flat_map(|s| anchors.iter().filter(|&&a| by_pose.contains_key(&(a + 1))).map(move |&a| (s, a)))
@@ -789,11 +815,19 @@ fn orb_pairs(
                 seed: scene_gen_core::rng::fnv1a64(format!("evaluate/ransac/{seed}/{a}/{s}").as_bytes()),
                 ..FundamentalRansac::default()
             };
-            let (_, inl) = match_and_verify(&ka, &da, &kb, &db, &ransac);
-            let inliers = inl.iter().filter(|&&b| b).count() as f64;
-            let kp = ka.len() as f64;
-            let ratio = if inliers + kp > 0.0 { inliers / (inliers + kp) } else { 0.0 };
-            (s, inliers, ratio, kp, secs(t0))
+            let (matches, inl) = match_and_verify(&ka, &da, &kb, &db, &ransac);
+            let confirmed = match (&by_pose[&a].camera, &by_pose[&(a + 1)].camera) {
+                (Some(anchor), Some(successor)) => {
+                    let truth = PairTruth { anchor, anchor_depth_m: &by_pose[&a].depth_m, successor };
+                    truth.confirmed(&matches, &ka, &kb, TRUE_MATCH_TOLERANCE_PX)
+                }
+                _ => vec![false; matches.len()],
+            };
+            let inliers = inl.iter().zip(&confirmed).filter(|&(&i, &c)| i && c).count() as f64;
+            let ransac_inliers = inl.iter().filter(|&&b| b).count() as f64;
+            let keypoints = ka.len() as f64;
+            let ratio = if inliers + keypoints > 0.0 { inliers / (inliers + keypoints) } else { 0.0 };
+            OrbPair { scenario: s, inliers, ransac_inliers, ratio, keypoints, thread_s: secs(t0) }
         })
         .collect()
 }
@@ -908,13 +942,14 @@ impl Tally {
 
     /// ORB inliers and ratios of the anchor pairs.
     fn add_orb(&mut self, seed: u64, anchors: &[usize], by_pose: &BTreeMap<usize, PoseResult>, size: (u32, u32)) {
-        for (s, inliers, ratio, kp, t) in orb_pairs(seed, anchors, by_pose, size) {
-            let acc = &mut self.accs[s];
-            acc.inliers += inliers;
-            acc.ratio += ratio;
-            acc.keypoints += kp;
+        for pair in orb_pairs(seed, anchors, by_pose, size) {
+            let acc = &mut self.accs[pair.scenario];
+            acc.inliers += pair.inliers;
+            acc.ransac_inliers += pair.ransac_inliers;
+            acc.ratio += pair.ratio;
+            acc.keypoints += pair.keypoints;
             acc.pairs += 1;
-            self.timing.orb += t;
+            self.timing.orb += pair.thread_s;
         }
     }
 
@@ -1026,6 +1061,7 @@ impl Tally {
             ap50,
             ground_truth_objects: acc.gt.annotations.len(),
             mean_inliers,
+            mean_ransac_inliers: acc.ransac_inliers / pairs,
             inlier_ratio,
             mean_keypoints: acc.keypoints / pairs,
             frames: acc.frames,

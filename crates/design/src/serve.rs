@@ -9,7 +9,11 @@
 //! a candidate an optimizer proposes twice is answered at once the second time. End of input
 //! ends the server with exit status 0.
 //!
-//! # Protocol `scene-gen/serve/1` (JSON lines)
+//! # Protocol `scene-gen/serve/2` (JSON lines)
+//!
+//! Version 2 (release 0.2.0): `mean_inliers` and `inlier_ratio` count only the RANSAC inliers
+//! the ground truth confirms (`crate::true_matches`), and `mean_ransac_inliers` gives every
+//! RANSAC inlier (what version 1 called `mean_inliers`). The request is unchanged.
 //!
 //! **Evaluate** a camera candidate. `camera` is a [`CameraSpec`] object (the fields of a camera
 //! TOML file, unknown fields rejected) or the inline string form `SENSOR[,key=value]...`:
@@ -43,7 +47,7 @@
 //!
 //! ```json
 //! {"id": 0, "op": "describe"}
-//! {"id": 0, "ok": true, "op": "describe", "protocol": "scene-gen/serve/1",
+//! {"id": 0, "ok": true, "op": "describe", "protocol": "scene-gen/serve/2",
 //!  "sensors": ["PYTHON300", "IMX219", ..., "AM41"],
 //!  "genes": {"sensor": {"type": "categorical", "choices": "sensors"},
 //!            "focal_mm": {"type": "float", "min": 1.0, "max": 20.0},
@@ -88,7 +92,7 @@ use scene_gen_core::seeds::SeedRange;
 use scene_gen_scene::house::HouseOptions;
 
 /// The protocol version every `describe` response names.
-pub const PROTOCOL: &str = "scene-gen/serve/1";
+pub const PROTOCOL: &str = "scene-gen/serve/2";
 
 /// TaCOS's focal-length gene range, mm (docs/REFERENCE.md: 1..20 mm).
 pub const FOCAL_RANGE_MM: [f64; 2] = [1.0, 20.0];

@@ -212,6 +212,35 @@ impl Camera {
         })
     }
 
+    /// Where world point `p` images: continuous pixel coordinates (pixel `i`'s centre at
+    /// `i + 0.5`, as for [`Camera::ray_direction`]) and its depth along the optical axis,
+    /// metres; `None` for a point at or behind the pinhole's plane.
+    #[must_use]
+    pub fn project(&self, p: Vec3) -> Option<(f32, f32, f32)> {
+        let (forward, right, up) = self.basis();
+        let d = p - self.position;
+        let depth_m = d.dot(forward);
+        if depth_m <= CLIP_DEPTH_M as f32 {
+            return None;
+        }
+        let px_per_m_at_unit_depth = self.focal_mm / (self.pixel_pitch_um * 1e-3);
+        let px = self.width_px as f32 * 0.5 + d.dot(right) / depth_m * px_per_m_at_unit_depth;
+        let py = self.height_px as f32 * 0.5 - d.dot(up) / depth_m * px_per_m_at_unit_depth;
+        Some((px, py, depth_m))
+    }
+
+    /// The world point imaged at continuous pixel coordinates `(px, py)` at `depth_m` along
+    /// the optical axis (the [`super::Frame::depth_m`] convention): the inverse of
+    /// [`Camera::project`].
+    #[must_use]
+    pub fn point_at(&self, px: f32, py: f32, depth_m: f32) -> Vec3 {
+        let (forward, right, up) = self.basis();
+        let m_per_px_at_unit_depth = self.pixel_pitch_um * 1e-3 / self.focal_mm;
+        let x = (px - self.width_px as f32 * 0.5) * m_per_px_at_unit_depth;
+        let y = (self.height_px as f32 * 0.5 - py) * m_per_px_at_unit_depth;
+        self.position + (forward + right * x + up * y) * depth_m
+    }
+
     /// Unit world direction of the ray through continuous pixel coordinates `(px, py)`.
     #[must_use]
     pub fn ray_direction(&self, px: f32, py: f32) -> Vec3 {
@@ -312,6 +341,20 @@ mod tests {
             pitch_deg: 0.0,
             vignetting: true,
         }
+    }
+
+    #[test]
+    fn projection_inverts_the_point_at_a_pixel_and_depth() {
+        let c = Camera { pitch_deg: -17.0, yaw_deg: 33.0, ..camera() };
+        for (px, py, depth) in [(0.5, 0.5, 0.3), (320.0, 240.0, 2.0), (639.5, 100.25, 7.5)] {
+            let p = c.point_at(px, py, depth);
+            let (u, v, z) = c.project(p).expect("in front");
+            assert!((u - px).abs() < 1e-3 && (v - py).abs() < 1e-3 && (z - depth).abs() < 1e-4, "{u} {v} {z}");
+            // The pixel's ray runs through the point.
+            let along = (p - c.position).normalize();
+            assert!(along.dot(c.ray_direction(px, py)) > 1.0 - 1e-6);
+        }
+        assert!(c.project(c.position - c.basis().0).is_none(), "behind the camera");
     }
 
     #[test]
