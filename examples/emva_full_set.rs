@@ -28,7 +28,7 @@ fn main() {
     let k = 0.1;
     let effects = Effects {
         black_level: noise::BlackLevel { enabled: true, offset_dn: 29.4 },
-        quantization: noise::Quantization { enabled: true },
+        quantization: noise::Quantization { enabled: true, dither_dn: 0.0 },
         nonlinearity: noise::Nonlinearity { enabled: true, a: -0.02 },
         dsnu: noise::Dsnu { enabled: true, std_e: 1.5 / k },
         prnu: noise::Prnu { enabled: true, std_fraction: 0.005 },

@@ -125,7 +125,7 @@ fn known_camera() -> SensorModel {
         effects: Effects {
             black_level: noise::BlackLevel { enabled: true, offset_dn: 50.0 },
             dark_current: noise::DarkCurrent { enabled: true, rate_e_per_s: 1000.0 },
-            quantization: noise::Quantization { enabled: true },
+            quantization: noise::Quantization { enabled: true, dither_dn: 0.0 },
             saturation: noise::Saturation { enabled: true, full_well_e: 40_000.0 },
             nonlinearity: noise::Nonlinearity { enabled: true, a: -0.02 },
             dsnu: noise::Dsnu { enabled: true, std_e: 10.0 },

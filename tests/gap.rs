@@ -30,14 +30,14 @@ fn write_case(seed: u64, n: usize, dir: &Path) -> (testdata::HiddenCase, PathBuf
 /// two), strengths drawn at random from `testdata::random_case`'s ranges.
 ///
 /// A hit: the named effects are exactly the hidden ones and, when something is hidden, the gap
-/// shrinks by at least 80 %. These seeds give 31 of 40. The misses name the hidden effects
-/// plus one extra: black_level (seeds 16, 19, 26, 34: sets without a black level, whose dark
-/// frames clip at 0 DN, where the closed-form fits are approximate), dark_current (10, 25),
-/// illumination_falloff (32), hot_pixels (35); and one clean set (9) is given
-/// illumination_falloff.
+/// shrinks by at least 80 %. These seeds give 30 of 40. The misses name the hidden effects
+/// plus one extra: black_level (seeds 10, 16, 25: sets without a black level, whose dark frames
+/// clip at 0 DN, where the closed-form fits are approximate), dithered quantization (5, 19,
+/// both with misfit left over), dark_current (13), hot_pixels (26, 35), periodic_pattern (34);
+/// and one clean set (12) is given illumination_falloff.
 ///
-/// The count varies with the noise realisation far more than from 35 to 32. Measured over 31
-/// seed sets (case seeds `100000 b + 0..40`, data seeds + 1000, `GapOptions::seed` 1288 + b,
+/// The count varies with the noise realisation.
+/// Measured over 31 seed sets (case seeds `100000 b + 0..40`, data seeds + 1000, `GapOptions::seed` 1288 + b,
 /// b in 0..31; b = 0 is this test; a throw-away copy of this loop, run as
 /// `GAPRATE_BASES=0..31 RAYON_NUM_THREADS=1 target/release/deps/tmp_gaprate-* --nocapture`,
 /// 2026-11-24): before the merged draw (d4968cd) mean 27.7 hits, sd 4.1, range 17-35; after
@@ -48,9 +48,9 @@ fn write_case(seed: u64, n: usize, dir: &Path) -> (testdata::HiddenCase, PathBuf
 /// fails it more often than not.
 ///
 /// False names on clean sets: 23 of the 31 seed sets above named something on 1 to 7 of their
-/// 14 clean sets, so none at all is luck, not a property. These seeds name one (seed 9, since
-/// the calibration estimates the dark variance at zero exposure as the EMVA 1288 reference
-/// implementation does). The test allows at most 2 of 14: a workflow that names something on
+/// 14 clean sets, so none at all is luck, not a property. These seeds name one (seed 12). Those
+/// figures were measured with one random stream for every temporal noise source; each source
+/// has its own now (common random numbers, `scene_gen::sensor::noise`). The test allows at most 2 of 14: a workflow that names something on
 /// many clean sets fails it, while the measured spread (0 to 7 per seed set) says a tighter
 /// bound on one seed set would test the draw, not the workflow.
 #[test]
@@ -285,23 +285,21 @@ fn sorted(v: impl IntoIterator<Item = String>) -> Vec<String> {
 /// descriptor per gain (the gains are not written: the workflow measures them from the
 /// response). Every case has a black level (see `testdata::random_multigain_case`); 4 have
 /// nothing else, 4 hide `read_noise_split`, 4 hide it and one more effect. A hit: exactly the
-/// hidden effects named. Prints the hit rate; asserts `read_noise_split` never named where it
-/// is not hidden, found in at least 7 of the 8 cases that hide it, and at least 6 of 12 exact
-/// hits. These seeds give 7 of 12 (8 before the merged signal + dark draw): the split found in
-/// all 8; the misses name one or two extras next to the hidden effects (dark_current in 4 sets,
-/// row_column_noise in 2, nonlinearity, illumination_falloff).
+/// hidden effects named. Prints the hit rate; asserts `read_noise_split` named in at most one of
+/// the 4 cases without it, found in at least 7 of the 8 cases that hide it, and at least 6 of
+/// 12 exact hits. These seeds give 10 of 12: the split found in all 8, named once where not
+/// hidden (seed 9); the other miss names dithered quantization beside the black level (seed 0).
 ///
 /// Measured over 31 seed sets (case seeds `100000 b + 300 + 0..12`, data seeds `100000 b + 77 +
-/// 0..12`, `GapOptions::seed` 1288 + b, b in 0..31, b = 0 this test; the throw-away run of the
-/// hit-rate test above): before (d4968cd) mean 10.35 exact hits, sd 1.25, range 8-12; after
-/// (a0e57ba) mean 10.45, sd 1.50, range 7-12; pooled mean 10.4, sd 1.4. We assert 6, 3 sd below
-/// the mean (4 sd, 4.9, is barely above the 4 of naming only the black level, which every case
-/// has). The split was found in all 8 in every run; named where not hidden in 6 of the 31 seed
-/// sets, on either stream (not here). The second gain is measured within 0.05 dB.
+/// 0..12`, `GapOptions::seed` 1288 + b, b in 0..31, b = 0 this test) with one random stream for
+/// every temporal noise source: mean 10.4 exact hits, sd 1.4; the split found in all 8 in every
+/// run and named where not hidden in 6 of the 31 sets, once each. We assert 6 hits, 3 sd below
+/// that mean (4 sd, 4.9, is barely above the 4 of naming only the black level, which every case
+/// has). The second gain is measured within 0.05 dB.
 #[test]
 fn read_noise_split_is_named_across_gains() {
     let dir = temp_dir("multigain");
-    let (mut hits, mut misses, mut split_found) = (0, Vec::new(), 0);
+    let (mut hits, mut misses, mut split_found, mut false_split) = (0, Vec::new(), 0, 0);
     for seed in 0..12u64 {
         let kind = match seed % 3 {
             0 => None,
@@ -318,7 +316,7 @@ fn read_noise_split_is_named_across_gains() {
         let named = sorted(r.named());
         let hidden = sorted(case.hidden.iter().map(|s| (*s).to_string()));
         if kind.is_none() {
-            assert!(!named.iter().any(|n| n == "read_noise_split"), "seed {seed}: no split hidden, named {named:?}");
+            false_split += usize::from(named.iter().any(|n| n == "read_noise_split"));
         } else if named.iter().any(|n| n == "read_noise_split") {
             split_found += 1;
         }
@@ -330,6 +328,7 @@ fn read_noise_split_is_named_across_gains() {
         let _ = std::fs::remove_dir_all(&case_dir);
     }
     println!("two-gain hidden-effect hit rate: {hits}/12; misses: {misses:?}");
+    assert!(false_split <= 1, "read_noise_split named in {false_split} of the 4 cases without it; {misses:?}");
     assert!(split_found >= 7, "read_noise_split found in {split_found}/8; {misses:?}");
     assert!(hits >= 6, "hit rate {hits}/12; misses: {misses:?}");
 }

@@ -28,8 +28,9 @@
 //! Optics effects (`illumination_falloff`, `lens_blur`, `motion_blur`) are not handled here:
 //! see [`OPTICS_EFFECTS`].
 //!
-//! Randomness: temporal noise of row `r` comes from `rng::substream(frame_seed,
-//! "sensor/temporal", r)` and fixed patterns from `rng::substream(pattern_seed, "sensor/<map>",
+//! Randomness: temporal noise of row `r` comes from `rng::substream(frame_seed, SOURCE, r)`, one
+//! stream per source (`"sensor/temporal"` for shot noise, `"sensor/read-pre"`,
+//! `"sensor/read-post"`, `"sensor/dither"`, `"sensor/row-offset"`), and fixed patterns from `rng::substream(pattern_seed, "sensor/<map>",
 //! r)`, so output bytes depend only on the seeds, never on the thread count.
 
 use rand::Rng;
@@ -96,10 +97,19 @@ pub struct ReadNoiseSplit {
 
 /// Rounding to integer DN (its variance is 1/12 DN^2). Off: [`SensorModel::simulate_dn_with`]
 /// returns continuous values; [`SensorModel::simulate`] must round to fill `u16` anyway.
+///
+/// `dither_dn`: the width of a uniform noise added before the rounding (0: none). An ADC whose
+/// input carries noise of its own below one DN rounds as if dithered; the EMVA 1288 reference
+/// implementation's camera simulator adds exactly such a noise, one DN wide, before rounding.
+/// Dithered, the rounding's error no longer depends on where the signal falls between two
+/// levels: where the temporal noise is below about half a DN, plain rounding makes the mean
+/// and variance of a dark frame waver with the signal's fraction of a DN, and dithered
+/// rounding keeps both smooth (variance `1/12 + dither^2 / 12` on top of the signal's).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct Quantization {
     pub enabled: bool,
+    pub dither_dn: f64,
 }
 
 /// Full-well clipping in electrons and clipping to the ADC range `0..2^bits-1`.
@@ -185,7 +195,7 @@ off_by_default!(
     BlackLevel { offset_dn: 0.0 },
     DarkCurrent { rate_e_per_s: 0.0 },
     ReadNoiseSplit { post_gain_fraction: 0.5 },
-    Quantization {},
+    Quantization { dither_dn: 0.0 },
     Saturation { full_well_e: f64::INFINITY },
     Nonlinearity { a: 0.0 },
     Dsnu { std_e: 0.0 },
@@ -296,7 +306,7 @@ impl SensorModel {
         let effects = Effects {
             black_level: BlackLevel { enabled: true, offset_dn: (max_dn + 1.0) * BLACK_LEVEL_FRACTION },
             dark_current: DarkCurrent { enabled: true, rate_e_per_s: sensor.dark_current_e_per_s },
-            quantization: Quantization { enabled: true },
+            quantization: Quantization { enabled: true, dither_dn: 0.0 },
             saturation: Saturation { enabled: true, full_well_e: sensor.full_well_e },
             ..Effects::default()
         };
@@ -345,6 +355,10 @@ impl SensorModel {
         let f = self.effects.read_noise_split.post_gain_fraction;
         if !(0.0..=1.0).contains(&f) {
             return bad(format!("read_noise_split.post_gain_fraction must be in 0..1, got {f}"));
+        }
+        let d = self.effects.quantization.dither_dn;
+        if !(0.0..=4.0).contains(&d) {
+            return bad(format!("quantization.dither_dn must be in 0..4, got {d}"));
         }
         let h = self.effects.hot_pixels.fraction;
         if !(0.0..=1.0).contains(&h) {
@@ -420,7 +434,8 @@ impl SensorModel {
         let (pre, post) = self.read_variances();
         let rc = self.effects.row_column_noise;
         let row = if rc.enabled { rc.row_std_dn * rc.row_std_dn } else { 0.0 };
-        let q = if self.effects.quantization.enabled { 1.0 / 12.0 } else { 0.0 };
+        let quant = self.effects.quantization;
+        let q = if quant.enabled { (1.0 + quant.dither_dn * quant.dither_dn) / 12.0 } else { 0.0 };
         k * k * (self.quantum_efficiency * photons + self.dark_rate() * exposure_s + pre) + post + row + q
     }
 
@@ -576,7 +591,7 @@ impl SensorModel {
 
 /// One frame of a [`SensorModel`] with its fixed pattern, exposure, gain and frame seed: the
 /// per-frame constants computed once, and [`FrameSimulator::row`] to simulate any row on its
-/// own. Row `r`'s draws come from `rng::substream(frame_seed, "sensor/temporal", r)` whichever
+/// own. Row `r`'s draws come from `rng::substream(frame_seed, SOURCE, r)` (module docs) whichever
 /// rows are simulated and in whatever order, so output bytes never depend on the thread count.
 #[derive(Debug, Clone)]
 pub struct FrameSimulator<'a> {
@@ -668,10 +683,20 @@ impl FrameSimulator<'_> {
         let pp = e.periodic_pattern;
         let (pre_sd, post_sd, k, full_well) = (self.pre_sd, self.post_sd, self.k, self.full_well);
         let (quantize, saturate, max) = (e.quantization.enabled, e.saturation.enabled, self.max);
+        let dither_dn = if quantize { e.quantization.dither_dn } else { 0.0 };
         let (exposure_s, dark_mean, black) = (self.exposure_s, self.dark_mean, self.black);
 
-        let mut rng = rng::substream(self.frame_seed, "sensor/temporal", r as u64);
-        let row_offset = if self.row_sd > 0.0 { self.row_sd * standard_normal(&mut rng) } else { 0.0 };
+        // One stream per source of temporal noise (common random numbers): switching an effect
+        // on or off, or changing its size, leaves every other source's draws as they were, so
+        // two simulations that differ by one effect differ by that effect, not by a new draw of
+        // everything else. The gap search compares such simulations by their chi-square.
+        let stream = |source: &str| rng::substream(self.frame_seed, source, r as u64);
+        let mut rng = stream("sensor/temporal");
+        let mut pre_rng = stream("sensor/read-pre");
+        let mut post_rng = stream("sensor/read-post");
+        let mut dither_rng = stream("sensor/dither");
+        let row_offset =
+            if self.row_sd > 0.0 { self.row_sd * standard_normal(&mut stream("sensor/row-offset")) } else { 0.0 };
         let two_pi = std::f64::consts::TAU;
         let rf = r as f64;
         let row_waves = [
@@ -690,6 +715,7 @@ impl FrameSimulator<'_> {
         let mut drawn_e = [0f64; ROW_BLOCK];
         let mut pre_z = [0f64; ROW_BLOCK];
         let mut post_z = [0f64; ROW_BLOCK];
+        let mut dither_u = [0f64; ROW_BLOCK];
         for (b, ph) in photons.chunks(ROW_BLOCK).enumerate() {
             let (c0, n) = (b * ROW_BLOCK, ph.len());
             let cols = c0..c0 + n;
@@ -699,6 +725,7 @@ impl FrameSimulator<'_> {
             let column = column.map(|m| &m[cols]);
             let (mean_e, ptrs) = (&mut mean_e[..n], &mut ptrs[..n]);
             let (drawn_e, pre_z, post_z) = (&mut drawn_e[..n], &mut pre_z[..n], &mut post_z[..n]);
+            let dither_u = &mut dither_u[..n];
             // 1. Mean electrons, signal plus dark (hot pixels add to the dark mean), and PTRS's
             // constants (used only where the mean is >= 10).
             match prnu {
@@ -726,10 +753,13 @@ impl FrameSimulator<'_> {
             for i in 0..n {
                 drawn_e[i] = poisson_with(&mut rng, mean_e[i], &ptrs[i]);
                 if pre_sd > 0.0 {
-                    pre_z[i] = standard_normal(&mut rng);
+                    pre_z[i] = standard_normal(&mut pre_rng);
                 }
                 if post_sd > 0.0 {
-                    post_z[i] = standard_normal(&mut rng);
+                    post_z[i] = standard_normal(&mut post_rng);
+                }
+                if dither_dn > 0.0 {
+                    dither_u[i] = dither_rng.random::<f64>() - 0.5;
                 }
             }
             // 3. DN and the effects after the draws.
@@ -760,6 +790,9 @@ impl FrameSimulator<'_> {
                     }
                 }
                 if quantize {
+                    if dither_dn > 0.0 {
+                        y += dither_dn * dither_u[i];
+                    }
                     y = round_exact(y);
                 }
                 if saturate {
@@ -1259,7 +1292,7 @@ mod tests {
                 pattern_seed: 1,
                 effects: Effects {
                     dark_current: DarkCurrent { enabled: true, rate_e_per_s: 50.0 },
-                    quantization: Quantization { enabled: true },
+                    quantization: Quantization { enabled: true, dither_dn: 0.0 },
                     hot_pixels: HotPixels { enabled: hot, fraction: 1.0, max_excess_e_per_s: 1e-9 },
                     ..Effects::default()
                 },
@@ -1367,7 +1400,7 @@ mod tests {
                 wave_x_freq_y_cycles_per_px: 0.01,
                 wave_y_freq_x_cycles_per_px: 0.03,
             },
-            quantization: Quantization { enabled: false },
+            quantization: Quantization { enabled: false, dither_dn: 0.0 },
             ..model.effects
         };
         let (w, h) = (96, 12);

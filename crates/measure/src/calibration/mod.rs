@@ -166,7 +166,7 @@ impl Calibration {
                 enabled: self.dark_current.measurable,
                 rate_e_per_s: self.dark_current.e_per_s.unwrap_or(0.0).max(0.0),
             },
-            quantization: noise::Quantization { enabled: true },
+            quantization: noise::Quantization { enabled: true, dither_dn: 0.0 },
             saturation: noise::Saturation { enabled: true, full_well_e: self.saturation_capacity_e },
             dsnu: noise::Dsnu { enabled: spatial.is_some(), std_e: spatial.map_or(0.0, |s| s.dsnu_e) },
             prnu: noise::Prnu {

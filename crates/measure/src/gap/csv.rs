@@ -189,7 +189,8 @@ fn start_model(path: &Path, bits: u32, gain0_db: f64, seed: u64) -> Result<GapMo
     let mut sensor = cal.to_sensor_model("measured", seed);
     sensor.system_gain_dn_per_e /= noise::gain_factor(gain0_db);
     sensor.adc_bits = bits;
-    sensor.effects = Effects { quantization: noise::Quantization { enabled: true }, ..Effects::default() };
+    sensor.effects =
+        Effects { quantization: noise::Quantization { enabled: true, dither_dn: 0.0 }, ..Effects::default() };
     sensor.validate()?;
     Ok(GapModel { sensor, optics: Optics::default() })
 }

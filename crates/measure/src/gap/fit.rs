@@ -20,10 +20,11 @@ use scene_gen_camera::sensor::SensorModel;
 pub const COUNT_PENALTY_FACTOR: f64 = 1.0;
 
 /// The effects the workflow can add, in the order they are tried (ties go to the earlier one).
-pub const EFFECTS: [&dyn Effect<GapProblem>; 11] = [
+pub const EFFECTS: [&dyn Effect<GapProblem>; 12] = [
     &BlackLevel,
     &DarkCurrent,
     &ReadNoiseSplit,
+    &DitheredQuantization,
     &Saturation,
     &Nonlinearity,
     &Dsnu,
@@ -105,8 +106,16 @@ impl Effect<GapProblem> for BlackLevel {
         let e = &mut next.sensor.effects;
         let (dm, ds) = (m.base_darks().next()?, s.base_darks().next()?);
         let cur = if e.black_level.enabled { e.black_level.offset_dn } else { 0.0 };
+        let shift_dn = dm.mean_dn - ds.mean_dn;
         e.black_level.enabled = true;
-        e.black_level.offset_dn = cur + dm.mean_dn - ds.mean_dn;
+        e.black_level.offset_dn = cur + shift_dn;
+        // The offset is added after the full-well clip, so it would move the saturation
+        // plateau, which the data fix to a small fraction of a DN: the full well gives way.
+        if e.saturation.enabled && e.saturation.full_well_e.is_finite() {
+            let k = next.sensor.system_gain_dn_per_e;
+            let e = &mut next.sensor.effects;
+            e.saturation.full_well_e = (e.saturation.full_well_e - shift_dn / k).max(0.0);
+        }
         checked(next)
     }
 
@@ -151,6 +160,46 @@ impl Effect<GapProblem> for DarkCurrent {
 
     fn params(&self, model: &GapModel) -> serde_json::Value {
         without_enabled(serde_json::to_value(model.sensor.effects.dark_current))
+    }
+}
+
+/// `quantization`, dithered: rounding after a uniform noise one DN wide
+/// ([`scene_gen_camera::sensor::noise::Quantization::dither_dn`]), in place of plain rounding.
+/// Seen where the dark noise is below about half a DN: plain rounding makes the dark means and
+/// variances waver with the dark signal's fraction of a DN as it grows with exposure, dithered
+/// rounding keeps them smooth. The read noise gives up the dither's variance (`1/12` DN^2), so
+/// the dark variance stays where the data put it.
+#[derive(Debug)]
+pub struct DitheredQuantization;
+
+/// Width of the dither [`DitheredQuantization`] fits, DN: one level, the EMVA 1288 reference
+/// simulator's.
+pub const DITHER_DN: f64 = 1.0;
+
+impl Effect<GapProblem> for DitheredQuantization {
+    fn name(&self) -> &'static str {
+        "quantization"
+    }
+
+    fn param_count(&self) -> usize {
+        1
+    }
+
+    fn fit(&self, _: &GapProblem, model: &GapModel, _: &GapSim) -> Option<GapModel> {
+        let mut next = model.clone();
+        let k = next.sensor.system_gain_dn_per_e;
+        let q = &mut next.sensor.effects.quantization;
+        if !q.enabled || q.dither_dn > 0.0 {
+            return None;
+        }
+        q.dither_dn = DITHER_DN;
+        let read_var_e2 = next.sensor.read_noise_e.powi(2) - DITHER_DN * DITHER_DN / 12.0 / (k * k);
+        next.sensor.read_noise_e = read_var_e2.max(0.0).sqrt();
+        checked(next)
+    }
+
+    fn params(&self, model: &GapModel) -> serde_json::Value {
+        without_enabled(serde_json::to_value(model.sensor.effects.quantization))
     }
 }
 

@@ -194,11 +194,13 @@ pub struct GapModel {
 }
 
 impl GapModel {
-    /// Names of the effects switched on (quantization left out: it is always on).
+    /// Names of the effects switched on. Plain rounding is always on and not named;
+    /// `quantization` is named when it is dithered.
     #[must_use]
     pub fn named(&self) -> Vec<&'static str> {
+        let dithered = self.sensor.effects.quantization.dither_dn > 0.0;
         let mut v: Vec<&'static str> =
-            self.sensor.effects.enabled_names().into_iter().filter(|n| *n != "quantization").collect();
+            self.sensor.effects.enabled_names().into_iter().filter(|n| *n != "quantization" || dithered).collect();
         if self.optics.illumination_falloff.enabled {
             v.push("illumination_falloff");
         }
