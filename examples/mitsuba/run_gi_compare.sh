@@ -12,9 +12,10 @@ seed=${2:-7}
 shift 2 || shift $# || true
 export DRJIT_LIBLLVM_PATH=${DRJIT_LIBLLVM_PATH:-/usr/lib/x86_64-linux-gnu/libLLVM-19.so}
 cargo build --release --quiet --example gi_views --bin scene-gen
-target/release/scene-gen --seed "$seed" --format obj --out "$out/obj" > /dev/null
+# gi_views first: it refuses bad GI_VIEWS_ARGS (status 2) before anything is written.
 # shellcheck disable=SC2086 # GI_VIEWS_ARGS is a list of options
 target/release/examples/gi_views --seed "$seed" --out "$out/views" ${GI_VIEWS_ARGS:-}
+target/release/scene-gen --seed "$seed" --format obj --out "$out/obj" > /dev/null
 echo "load before: $(uptime)"
 .venv-mitsuba/bin/python examples/mitsuba/gi_compare.py --views "$out/views" --obj "$out/obj/scene.obj" \
     --out "$out/mitsuba" "$@"

@@ -80,7 +80,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::progress::Progress;
-use crate::true_matches::{PairTruth, TRUE_MATCH_TOLERANCE_PX};
+use crate::true_matches::PairTruth;
 use scene_gen_camera::camera_spec::{CameraSpec, ResolvedCamera, SpecError};
 use scene_gen_camera::capture::{Capture, CaptureError, PerceptionImage, scenario_name};
 use scene_gen_camera::isp::OutputRule;
@@ -816,14 +816,15 @@ fn orb_pairs(seed: u64, anchors: &[usize], by_pose: &BTreeMap<usize, PoseResult>
                 ..FundamentalRansac::default()
             };
             let (matches, inl) = match_and_verify(&ka, &da, &kb, &db, &ransac);
-            let confirmed = match (&by_pose[&a].camera, &by_pose[&(a + 1)].camera) {
+            // Only RANSAC's inliers are checked against the ground truth, at its own threshold.
+            let inliers = match (&by_pose[&a].camera, &by_pose[&(a + 1)].camera) {
                 (Some(anchor), Some(successor)) => {
                     let truth = PairTruth { anchor, anchor_depth_m: &by_pose[&a].depth_m, successor };
-                    truth.confirmed(&matches, &ka, &kb, TRUE_MATCH_TOLERANCE_PX)
+                    let tolerance_px = ransac.threshold_px as f32;
+                    matches.iter().zip(&inl).filter(|&(&m, &i)| i && truth.confirms(m, &ka, &kb, tolerance_px)).count()
                 }
-                _ => vec![false; matches.len()],
-            };
-            let inliers = inl.iter().zip(&confirmed).filter(|&(&i, &c)| i && c).count() as f64;
+                _ => 0,
+            } as f64;
             let ransac_inliers = inl.iter().filter(|&&b| b).count() as f64;
             let keypoints = ka.len() as f64;
             let ratio = if inliers + keypoints > 0.0 { inliers / (inliers + keypoints) } else { 0.0 };

@@ -17,10 +17,6 @@
 use scene_gen_perception::orb::{KeyPoint, Match};
 use scene_gen_render::camera::Camera;
 
-/// How far a successor keypoint may lie from where the ground truth puts its anchor
-/// keypoint, pixels: the evaluator's RANSAC threshold (OpenCV's default, 3 px).
-pub const TRUE_MATCH_TOLERANCE_PX: f32 = 3.0;
-
 /// What the ground truth of a frame pair is: the anchor's camera and per-pixel depth
 /// (metres along the optical axis, `f32::INFINITY` where nothing was hit) and the successor's
 /// camera, at the resolution of the images the keypoints come from.
@@ -32,28 +28,15 @@ pub struct PairTruth<'a> {
 }
 
 impl PairTruth<'_> {
-    /// For each match, whether the successor keypoint lies within `tolerance_px` of where
-    /// the anchor keypoint's surface point images in the successor. A corner sits on an
-    /// edge, often a depth edge, and its pixel may hold the far side's depth, so each of the
-    /// 3 x 3 pixels round the keypoint is tried: a match is true when any of them confirms it.
+    /// Whether match `m` (indices into the `anchor` and `successor` keypoints) is true: its
+    /// successor keypoint lies within `tolerance_px` (the evaluator passes its RANSAC
+    /// threshold) of where the anchor keypoint's surface point images in the successor. A
+    /// corner sits on an edge, often a depth edge, and its pixel may hold the far side's depth,
+    /// so each of the 3 x 3 pixels round the keypoint is tried: the match is true when any of
+    /// them confirms it.
     #[must_use]
-    pub fn confirmed(
-        &self,
-        matches: &[Match],
-        anchor: &[KeyPoint],
-        successor: &[KeyPoint],
-        tolerance_px: f32,
-    ) -> Vec<bool> {
-        matches
-            .iter()
-            .map(|m| {
-                let (a, b) = (anchor[m.query as usize], successor[m.train as usize]);
-                self.confirms(a, b, tolerance_px)
-            })
-            .collect()
-    }
-
-    fn confirms(&self, a: KeyPoint, b: KeyPoint, tolerance_px: f32) -> bool {
+    pub fn confirms(&self, m: Match, anchor: &[KeyPoint], successor: &[KeyPoint], tolerance_px: f32) -> bool {
+        let (a, b) = (anchor[m.query as usize], successor[m.train as usize]);
         let (w, h) = (self.anchor.width_px as i64, self.anchor.height_px as i64);
         if self.anchor_depth_m.len() as i64 != w * h {
             return false;
@@ -120,16 +103,13 @@ mod tests {
         let moved = keypoint(32.0 + 10.5 * scale - 0.5, 24.0 + 6.5 * scale - 0.5);
         let stayed = keypoint(42.0, 30.0);
         let mirrored = keypoint(32.0 - 10.5 * scale - 0.5, 24.0 + 6.5 * scale - 0.5);
-        let matches = [
-            Match { query: 0, train: 0, distance: 0 },
-            Match { query: 0, train: 1, distance: 0 },
-            Match { query: 0, train: 2, distance: 0 },
-        ];
-        let flags = truth.confirmed(&matches, &[ka], &[moved, stayed, mirrored], 0.5);
+        let to = |train| Match { query: 0, train, distance: 0 };
+        let successor = [moved, stayed, mirrored];
+        let flags: Vec<bool> = (0..3).map(|i| truth.confirms(to(i), &[ka], &successor, 0.5)).collect();
         assert_eq!(flags, vec![true, false, false]);
         // Where nothing was hit, nothing is confirmed.
         let sky = vec![f32::INFINITY; 64 * 48];
         let blind = PairTruth { anchor: &a, anchor_depth_m: &sky, successor: &b };
-        assert_eq!(blind.confirmed(&matches[..1], &[ka], &[moved], 3.0), vec![false]);
+        assert!(!blind.confirms(to(0), &[ka], &successor, 3.0));
     }
 }
