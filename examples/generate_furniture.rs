@@ -1,8 +1,10 @@
-//! Writes the low-poly furniture meshes of the embedded library: `furniture/<class>/<variant>.obj`
-//! with a `<variant>.mtl` beside each.
+//! Writes the OBJ furniture library `examples/furniture_obj/<class>/<variant>.obj` with a
+//! `<variant>.mtl` beside each: fixed low-poly meshes, one per variant, in the format of a
+//! user's `--furniture` folder (the embedded library builds every object's shape with
+//! `scene_gen::procedural` instead).
 //!
 //! ```text
-//! cargo run --example generate_furniture            # rewrites ./furniture/*/*.obj|mtl
+//! cargo run --example generate_furniture            # rewrites examples/furniture_obj/*/*.obj|mtl
 //! cargo run --example generate_furniture -- DIR     # writes into DIR instead
 //! ```
 //!
@@ -14,230 +16,12 @@
 //! formatting, no hash maps), so regenerating gives byte-identical files; `tests/placement.rs`
 //! checks that against the committed library.
 
-use std::f32::consts::{FRAC_PI_2, PI, TAU};
+use std::f32::consts::FRAC_PI_2;
 use std::fmt::Write as _;
 use std::path::Path;
 
-use glam::{Mat3, Mat4, Vec2, Vec3};
-
-/// One surface's triangles.
-struct Part {
-    surface: &'static str,
-    positions: Vec<Vec3>,
-    normals: Vec<Vec3>,
-    uvs: Vec<Vec2>,
-    triangles: Vec<[u32; 3]>,
-}
-
-/// A mesh under construction: parts in order of first use of their surface.
-#[derive(Default)]
-struct Builder {
-    parts: Vec<Part>,
-}
-
-impl Builder {
-    fn part(&mut self, surface: &'static str) -> &mut Part {
-        let index = match self.parts.iter().position(|p| p.surface == surface) {
-            Some(i) => i,
-            None => {
-                self.parts.push(Part {
-                    surface,
-                    positions: Vec::new(),
-                    normals: Vec::new(),
-                    uvs: Vec::new(),
-                    triangles: Vec::new(),
-                });
-                self.parts.len() - 1
-            }
-        };
-        &mut self.parts[index]
-    }
-
-    /// A planar quad `p0 p1 p2 p3`, counter-clockwise seen from its outside; UVs are the
-    /// local coordinates of the corners along the quad's own edges (metres).
-    fn quad(&mut self, surface: &'static str, corners: [Vec3; 4], uv: [Vec2; 4]) {
-        let normal = (corners[1] - corners[0]).cross(corners[2] - corners[0]).normalize_or_zero();
-        let part = self.part(surface);
-        let base = part.positions.len() as u32;
-        for (c, t) in corners.iter().zip(uv) {
-            part.positions.push(*c);
-            part.normals.push(normal);
-            part.uvs.push(t);
-        }
-        part.triangles.push([base, base + 1, base + 2]);
-        part.triangles.push([base, base + 2, base + 3]);
-    }
-
-    /// A box of `size` centred on the origin of the rigid frame `frame`.
-    fn box_in(&mut self, surface: &'static str, frame: Mat4, size: Vec3) {
-        let h = size * 0.5;
-        // (normal axis, u axis, v axis) per face, each right-handed so u x v = normal.
-        let faces = [
-            (Vec3::X, Vec3::Y, Vec3::Z),
-            (Vec3::NEG_X, Vec3::NEG_Y, Vec3::Z),
-            (Vec3::Y, Vec3::NEG_X, Vec3::Z),
-            (Vec3::NEG_Y, Vec3::X, Vec3::Z),
-            (Vec3::Z, Vec3::X, Vec3::Y),
-            (Vec3::NEG_Z, Vec3::X, Vec3::NEG_Y),
-        ];
-        for (n, u, v) in faces {
-            let (hu, hv, hn) = (u.abs().dot(h), v.abs().dot(h), n.abs().dot(h));
-            let local = [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)];
-            let corners = local.map(|(su, sv)| frame.transform_point3(n * hn + u * (su * hu) + v * (sv * hv)));
-            let uv = local.map(|(su, sv)| Vec2::new(su * hu + hu, sv * hv + hv));
-            self.quad(surface, corners, uv);
-        }
-    }
-
-    /// An axis-aligned box from `min` to `max`.
-    fn cuboid(&mut self, surface: &'static str, min: Vec3, max: Vec3) {
-        self.box_in(surface, Mat4::from_translation((min + max) * 0.5), max - min);
-    }
-
-    /// A frustum along the local +Z of `frame` from z = 0 (radius `r0`) to z = `height`
-    /// (radius `r1`), with smooth side normals and optional flat caps.
-    #[allow(clippy::too_many_arguments)]
-    fn frustum(
-        &mut self,
-        side: &'static str,
-        frame: Mat4,
-        r0: f32,
-        r1: f32,
-        height: f32,
-        segments: u32,
-        bottom: Option<&'static str>,
-        top: Option<&'static str>,
-    ) {
-        let slope = (r0 - r1) / height;
-        let normal_matrix = Mat3::from_mat4(frame);
-        {
-            let part = self.part(side);
-            let base = part.positions.len() as u32;
-            let mean_r = (r0 + r1) * 0.5;
-            let slant = Vec2::new(r0 - r1, height).length();
-            for i in 0..=segments {
-                let a = TAU * i as f32 / segments as f32;
-                let (s, c) = a.sin_cos();
-                let n = normal_matrix * Vec3::new(c, s, slope).normalize();
-                for (r, z, v) in [(r0, 0.0, 0.0), (r1, height, slant)] {
-                    part.positions.push(frame.transform_point3(Vec3::new(c * r, s * r, z)));
-                    part.normals.push(n);
-                    part.uvs.push(Vec2::new(a * mean_r, v));
-                }
-            }
-            for i in 0..segments {
-                let (a0, a1) = (base + 2 * i, base + 2 * i + 1);
-                let (b0, b1) = (a0 + 2, a1 + 2);
-                // A radius of zero (a cone's apex) collapses one triangle of the quad; leave
-                // it out rather than emit a zero-area triangle.
-                if r0 > 0.0 {
-                    part.triangles.push([a0, b0, b1]);
-                }
-                if r1 > 0.0 {
-                    part.triangles.push([a0, b1, a1]);
-                }
-            }
-        }
-        for (surface, r, z, up) in [(bottom, r0, 0.0, false), (top, r1, height, true)] {
-            let Some(surface) = surface else { continue };
-            let n = normal_matrix * if up { Vec3::Z } else { Vec3::NEG_Z };
-            let part = self.part(surface);
-            let centre = part.positions.len() as u32;
-            part.positions.push(frame.transform_point3(Vec3::new(0.0, 0.0, z)));
-            part.normals.push(n);
-            part.uvs.push(Vec2::ZERO);
-            for i in 0..segments {
-                let a = TAU * i as f32 / segments as f32;
-                let (s, c) = a.sin_cos();
-                part.positions.push(frame.transform_point3(Vec3::new(c * r, s * r, z)));
-                part.normals.push(n);
-                part.uvs.push(Vec2::new(c * r, if up { s * r } else { -s * r }));
-            }
-            for i in 0..segments {
-                let (p, q) = (centre + 1 + i, centre + 1 + (i + 1) % segments);
-                part.triangles.push(if up { [centre, p, q] } else { [centre, q, p] });
-            }
-        }
-    }
-
-    /// A vertical cylinder standing on `base`.
-    fn cylinder(&mut self, surface: &'static str, base: Vec3, r: f32, height: f32, segments: u32) {
-        self.frustum(surface, Mat4::from_translation(base), r, r, height, segments, Some(surface), Some(surface));
-    }
-
-    /// An ellipsoid with semi-axes `radii` around `centre`: `segments` around, `rings` from
-    /// pole to pole, smooth normals.
-    fn ellipsoid(&mut self, surface: &'static str, centre: Vec3, radii: Vec3, segments: u32, rings: u32) {
-        let part = self.part(surface);
-        let base = part.positions.len() as u32;
-        let mean_r = (radii.x + radii.y + radii.z) / 3.0;
-        for j in 0..=rings {
-            let polar = PI * j as f32 / rings as f32;
-            let (sp, cp) = polar.sin_cos();
-            for i in 0..=segments {
-                let a = TAU * i as f32 / segments as f32;
-                let (s, c) = a.sin_cos();
-                let unit = Vec3::new(c * sp, s * sp, cp);
-                part.positions.push(centre + unit * radii);
-                part.normals.push((unit / radii).normalize());
-                part.uvs.push(Vec2::new(a * mean_r, polar * mean_r));
-            }
-        }
-        let row = segments + 1;
-        for j in 0..rings {
-            for i in 0..segments {
-                let a = base + j * row + i;
-                let (b, c, d) = (a + 1, a + row, a + row + 1);
-                if j != 0 {
-                    part.triangles.push([a, c, b]);
-                }
-                if j != rings - 1 {
-                    part.triangles.push([b, c, d]);
-                }
-            }
-        }
-    }
-
-    /// An open-topped box (a tub, a bowl): four walls of thickness `wall` and a bottom, so
-    /// the cavity has real inner walls.
-    fn open_box(&mut self, surface: &'static str, min: Vec3, max: Vec3, wall: f32, bottom: f32) {
-        self.cuboid(surface, min, Vec3::new(max.x, max.y, min.z + bottom));
-        let z0 = min.z + bottom;
-        self.cuboid(surface, Vec3::new(min.x, min.y, z0), Vec3::new(max.x, min.y + wall, max.z));
-        self.cuboid(surface, Vec3::new(min.x, max.y - wall, z0), Vec3::new(max.x, max.y, max.z));
-        self.cuboid(surface, Vec3::new(min.x, min.y + wall, z0), Vec3::new(min.x + wall, max.y - wall, max.z));
-        self.cuboid(surface, Vec3::new(max.x - wall, min.y + wall, z0), Vec3::new(max.x, max.y - wall, max.z));
-    }
-
-    /// Four square legs of side `t` under the corners of a rectangle.
-    fn legs(&mut self, surface: &'static str, half: Vec2, t: f32, height: f32) {
-        for (sx, sy) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
-            let c = Vec2::new(sx * (half.x - t * 0.5), sy * (half.y - t * 0.5));
-            self.cuboid(
-                surface,
-                Vec3::new(c.x - t * 0.5, c.y - t * 0.5, 0.0),
-                Vec3::new(c.x + t * 0.5, c.y + t * 0.5, height),
-            );
-        }
-    }
-
-    /// Moves the mesh so its footprint is centred on x = y = 0 and it rests on z = 0.
-    fn recentre(&mut self) {
-        let (mut lo, mut hi) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
-        for p in self.parts.iter().flat_map(|p| &p.positions) {
-            lo = lo.min(*p);
-            hi = hi.max(*p);
-        }
-        let shift = Vec3::new(-(lo.x + hi.x) * 0.5, -(lo.y + hi.y) * 0.5, -lo.z);
-        for p in self.parts.iter_mut().flat_map(|p| &mut p.positions) {
-            *p += shift;
-        }
-    }
-
-    fn triangle_count(&self) -> usize {
-        self.parts.iter().map(|p| p.triangles.len()).sum()
-    }
-}
+use glam::{Mat4, Vec2, Vec3};
+use scene_gen::procedural::builder::MeshBuilder as Builder;
 
 /// Fixed-precision number with no negative zero, so output bytes never depend on rounding
 /// noise around 0.
@@ -758,7 +542,9 @@ pub fn write_library(root: &Path) -> std::io::Result<()> {
 
 #[allow(dead_code)]
 fn main() -> std::io::Result<()> {
-    let root = std::env::args().nth(1).unwrap_or_else(|| concat!(env!("CARGO_MANIFEST_DIR"), "/furniture").to_string());
+    let root = std::env::args()
+        .nth(1)
+        .unwrap_or_else(|| concat!(env!("CARGO_MANIFEST_DIR"), "/examples/furniture_obj").to_string());
     write_library(Path::new(&root))?;
     for (class, stem, builder) in library() {
         println!("{class}/{stem}: {} triangles", builder.triangle_count());

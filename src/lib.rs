@@ -20,7 +20,7 @@
 //! Where each module comes from:
 //! * scene-gen-core: [`rng`], [`seeds`], [`simd`], [`io`], [`stats`].
 //! * scene-gen-scene: [`config`], [`library`], [`assets`], [`materials`], [`textures`],
-//!   [`generate`], [`floorplan`], [`structure`], [`placement`], [`decor`], [`lights`],
+//!   [`generate`], [`floorplan`], [`structure`], [`placement`], [`procedural`], [`decor`], [`lights`],
 //!   [`scene`], [`manifest`], [`trajectory`], [`house`].
 //! * scene-gen-export: [`export`]. scene-gen-trace: [`trace`]. scene-gen-render: [`render`].
 //! * scene-gen-camera: [`camera_spec`], [`sensor`], [`optics`], [`radiometry`], [`isp`],
@@ -48,7 +48,7 @@ pub use scene_gen_measure::{calibration, gap, target};
 pub use scene_gen_perception::{detection, orb};
 pub use scene_gen_render as render;
 pub use scene_gen_scene::{
-    assets, config, decor, floorplan, generate, house, library, lights, manifest, materials, placement, scene,
-    structure, textures, trajectory,
+    assets, config, decor, floorplan, generate, house, library, lights, manifest, materials, placement, procedural,
+    scene, structure, textures, trajectory,
 };
 pub use scene_gen_trace as trace;

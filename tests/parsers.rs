@@ -124,11 +124,19 @@ fn check_rooms(bytes: Vec<u8>) -> Result<(), TestCaseError> {
     Ok(())
 }
 
-// ---- furniture (furniture/<class>/<class>.toml and its OBJ/MTL assets) ----
+// ---- furniture (<class>/<class>.toml with generators, or with OBJ/MTL assets) ----
 
-/// The files of one furniture class folder, as the library reads them.
+/// The embedded library (generators) and the OBJ sample library.
+const FURNITURE_ROOTS: [&str; 2] = ["furniture", "examples/furniture_obj"];
+
+/// The files of one furniture class folder of the OBJ sample library, as the library reads them.
 fn furniture_class(class: &str) -> Vec<LibraryFile> {
-    let dir = repo(&format!("furniture/{class}"));
+    class_files(FURNITURE_ROOTS[1], class)
+}
+
+/// The files of `root/<class>`, named `furniture/<class>/...`.
+fn class_files(root: &str, class: &str) -> Vec<LibraryFile> {
+    let dir = repo(&format!("{root}/{class}"));
     let mut names: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name()).collect();
     names.sort();
     names
@@ -143,8 +151,8 @@ fn furniture_class(class: &str) -> Vec<LibraryFile> {
 const CLASSES: [&str; 3] = ["sofa", "table", "plant"];
 
 /// The class folder with its file number `which` (of the given extension) replaced by `bytes`.
-fn check_furniture(class: &str, ext: &str, which: usize, edits: &[Edit]) -> Result<(), TestCaseError> {
-    let mut files = furniture_class(class);
+fn check_furniture(root: &str, class: &str, ext: &str, which: usize, edits: &[Edit]) -> Result<(), TestCaseError> {
+    let mut files = class_files(root, class);
     let targets: Vec<usize> =
         (0..files.len()).filter(|&i| files[i].path.extension().is_some_and(|e| e == ext)).collect();
     let target = targets[which % targets.len()];
@@ -233,7 +241,9 @@ proptest! {
 
     #[test]
     fn furniture_tomls_take_mutated_files(class in 0..CLASSES.len(), edits in prop::collection::vec(edit(), 1..6)) {
-        check_furniture(CLASSES[class], "toml", 0, &edits)?;
+        for root in FURNITURE_ROOTS {
+            check_furniture(root, CLASSES[class], "toml", 0, &edits)?;
+        }
     }
 
     #[test]
@@ -248,12 +258,12 @@ proptest! {
 
     #[test]
     fn obj_assets_take_mutated_files(class in 0..CLASSES.len(), which in 0usize..8, edits in prop::collection::vec(edit(), 1..6)) {
-        check_furniture(CLASSES[class], "obj", which, &edits)?;
+        check_furniture(FURNITURE_ROOTS[1], CLASSES[class], "obj", which, &edits)?;
     }
 
     #[test]
     fn obj_material_files_take_mutated_files(class in 0..CLASSES.len(), which in 0usize..8, edits in prop::collection::vec(edit(), 1..6)) {
-        check_furniture(CLASSES[class], "mtl", which, &edits)?;
+        check_furniture(FURNITURE_ROOTS[1], CLASSES[class], "mtl", which, &edits)?;
     }
 
     #[test]
@@ -378,7 +388,9 @@ fn the_seed_files_parse() {
         parse_room_types(&[LibraryFile { path: PathBuf::from(path), bytes: read(path) }]).unwrap();
     }
     for class in CLASSES {
-        parse_furniture(&furniture_class(class)).unwrap();
+        for root in FURNITURE_ROOTS {
+            parse_furniture(&class_files(root, class)).unwrap();
+        }
     }
     for (file, json) in PATHS {
         path::parse(Path::new(if json { "p.json" } else { "p.csv" }), file).unwrap();

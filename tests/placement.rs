@@ -6,10 +6,11 @@ use std::collections::{BTreeSet, VecDeque};
 use glam::{Vec2, Vec3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use scene_gen::assets::{AssetMesh, AssetPart};
 use scene_gen::config::GeneratorConfig;
 use scene_gen::floorplan::Floorplan;
 use scene_gen::generate::generate;
-use scene_gen::library::Library;
+use scene_gen::library::{Library, LibrarySource};
 use scene_gen::materials::MaterialCatalog;
 use scene_gen::placement::{self, PlacedBy};
 use scene_gen::scene::{Door, Geometry, Object, ObjectClass, Room, Semantic, Window};
@@ -20,21 +21,40 @@ mod generate_furniture;
 
 const WALL_M: f32 = 0.1;
 
+/// The embedded library: every variant a generator.
 fn library() -> Library {
     static LIBRARY: std::sync::OnceLock<Library> = std::sync::OnceLock::new();
     LIBRARY.get_or_init(|| Library::embedded().expect("embedded library loads")).clone()
 }
 
+/// The OBJ sample library (`examples/furniture_obj`), as `--furniture` loads it.
+fn obj_library() -> Library {
+    static LIBRARY: std::sync::OnceLock<Library> = std::sync::OnceLock::new();
+    LIBRARY
+        .get_or_init(|| {
+            let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/furniture_obj");
+            Library::load(LibrarySource::Embedded, LibrarySource::Folder(&root)).expect("OBJ library loads")
+        })
+        .clone()
+}
+
 #[test]
-fn library_has_three_variants_with_normals_and_uvs_per_class() {
-    let lib = library();
+fn libraries_have_three_variants_with_normals_and_uvs_per_class() {
+    for (lib, max_triangles) in [(obj_library(), 500), (library(), 6000)] {
+        check_variants(&lib, max_triangles);
+    }
+    assert!(library().furniture.iter().flat_map(|c| &c.variants).all(|v| v.generator.is_some()));
+    assert!(obj_library().furniture.iter().flat_map(|c| &c.variants).all(|v| v.generator.is_none()));
+}
+
+fn check_variants(lib: &Library, max_triangles: usize) {
     for class in ObjectClass::ALL {
         let entry = lib.furniture_class(class).unwrap_or_else(|| panic!("no class {class}"));
         assert!(entry.variants.len() >= 3, "{class}: {} variants", entry.variants.len());
         for v in &entry.variants {
             assert!(v.had_normals && v.had_uvs, "{class}/{}: normals {} uvs {}", v.name, v.had_normals, v.had_uvs);
             let tris = v.mesh.triangle_count();
-            assert!((12..=500).contains(&tris), "{class}/{}: {tris} triangles is not low-poly", v.name);
+            assert!((12..=max_triangles).contains(&tris), "{class}/{}: {tris} triangles", v.name);
             assert!(v.mesh.min.z.abs() < 1e-6 && (v.mesh.min.x + v.mesh.max.x).abs() < 1e-4);
             for part in &v.mesh.parts {
                 assert!(MaterialCatalog::is_surface(&part.surface), "{class}/{}: {}", v.name, part.surface);
@@ -46,7 +66,7 @@ fn library_has_three_variants_with_normals_and_uvs_per_class() {
 
 #[test]
 fn supports_offer_their_real_top() {
-    let lib = library();
+    let lib = obj_library();
     for v in &lib.furniture_class(ObjectClass::Table).unwrap().variants {
         let (z, lo, hi) = v.support_top.unwrap_or_else(|| panic!("{} has no top", v.name));
         assert!((z - v.mesh.max.z).abs() < 0.01, "{}: top at {z}, mesh up to {}", v.name, v.mesh.max.z);
@@ -63,12 +83,38 @@ fn supports_offer_their_real_top() {
 }
 
 #[test]
+fn generated_supports_offer_their_real_top() {
+    let lib = library();
+    for v in &lib.furniture_class(ObjectClass::Table).unwrap().variants {
+        let generator = v.generator.unwrap();
+        for seed in 0..40 {
+            let mesh = generator.generate(v.mesh.size(), false, seed);
+            let (z, lo, hi) = mesh.support_top().unwrap_or_else(|| panic!("{} {seed}: no top", v.name));
+            assert!((z - mesh.max.z).abs() < 0.01, "{} {seed}: top at {z}, mesh up to {}", v.name, mesh.max.z);
+            let area = (hi - lo).x * (hi - lo).y;
+            assert!(area > 0.3 * mesh.size().x * mesh.size().y, "{} {seed}: top {lo}..{hi}", v.name);
+        }
+    }
+    let bed = &lib.furniture_class(ObjectClass::Bed).unwrap().variants[0];
+    for seed in 0..40 {
+        let mesh = bed.generator.unwrap().generate(Vec3::new(1.4, 2.0, 1.05), false, seed);
+        // The mattress or the duvet on it, not the frame, a pillow or the headboard.
+        let (z, lo, hi) = mesh.support_top().unwrap_or_else(|| panic!("bed {seed}: no top"));
+        assert!((0.4..0.75).contains(&z), "bed {seed}: top at {z}");
+        assert!(hi.y - lo.y > 0.5 && hi.x - lo.x > 0.6, "bed {seed}: top {lo}..{hi}");
+    }
+}
+
+#[test]
 fn generator_reproduces_committed_files() {
-    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("furniture");
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/furniture_obj");
     let generated = generate_furniture::generated_files();
     for (path, text) in &generated {
         let committed = std::fs::read_to_string(root.join(path)).unwrap_or_else(|e| panic!("{path}: {e}"));
-        assert!(committed == *text, "furniture/{path} differs from the generator's output: run the example");
+        assert!(
+            committed == *text,
+            "examples/furniture_obj/{path} differs from the generator's output: run the example"
+        );
     }
     // Every committed mesh is one the generator writes.
     for dir in std::fs::read_dir(&root).unwrap() {
@@ -253,6 +299,24 @@ fn doors_connected(plan: &Floorplan, room: &Room, objects: &[Object]) -> Result<
     Ok(())
 }
 
+/// [`AssetMesh::support_top`] of a scene mesh, in its own frame.
+fn support_top(mesh: &scene_gen::scene::Mesh) -> Option<(f32, Vec2, Vec2)> {
+    let parts: Vec<AssetPart> = mesh
+        .primitives
+        .iter()
+        .map(|p| AssetPart {
+            surface: String::new(),
+            positions: p.positions.clone(),
+            normals: p.normals.clone(),
+            uvs: p.uvs.clone(),
+            indices: p.indices.clone(),
+        })
+        .collect();
+    let (min, max) =
+        parts.iter().flat_map(|p| &p.positions).fold((Vec3::MAX, Vec3::MIN), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
+    AssetMesh { parts, min, max }.support_top()
+}
+
 /// Checks every placement invariant of one furnished plan; `placed_by` when known.
 fn check(
     lib: &Library,
@@ -310,11 +374,10 @@ fn check(
             }
             Some(s) => {
                 let sup = &objects[s as usize];
-                let class = lib.furniture_class(sup.class).unwrap();
-                let stem = sup.asset.split('/').nth(1).unwrap();
-                let variant = class.variants.iter().find(|v| v.name == stem).unwrap();
-                let (top_z, _, _) = variant.support_top.ok_or(format!("{tag}: support has no top"))?;
                 let sup_node = geometry.nodes.iter().find(|n| n.semantic == Semantic::Object { id: s }).unwrap();
+                // The support's top, found afresh from the mesh the scene holds.
+                let (top_z, _, _) =
+                    support_top(&geometry.meshes[sup_node.mesh]).ok_or(format!("{tag}: support has no top"))?;
                 let z = sup_node.transform.transform_point3(Vec3::new(0.0, 0.0, top_z)).z;
                 if (o.min.z - z).abs() > EPS || o.min.z > sup.max.z + EPS || sup.on.is_some() || sup.room != o.room {
                     return Err(format!("{tag}: does not rest on {} (z {} vs top {z})", sup.asset, o.min.z));
@@ -430,15 +493,37 @@ fn hand_built_plans_keep_every_invariant_over_500_seeds() {
 }
 
 #[test]
-fn meshes_are_shared_between_instances() {
-    let lib = library();
-    let plan = random_plan(3, &lib);
-    let mut geometry = Geometry::default();
-    let config = GeneratorConfig { seed: 3, ..GeneratorConfig::default() };
-    let objects = placement::place(&config, &plan, &[], &lib, 1, &mut MaterialCatalog::new(3), &mut geometry).unwrap();
-    let names: BTreeSet<&str> = geometry.meshes.iter().map(|m| m.name.as_str()).collect();
-    assert_eq!(names.len(), geometry.meshes.len(), "a mesh was added twice");
-    assert!(geometry.meshes.len() <= objects.len());
+fn obj_meshes_are_shared_and_generated_shapes_are_not() {
+    for seed in 0..6 {
+        let lib = obj_library();
+        let plan = random_plan(seed, &lib);
+        let mut geometry = Geometry::default();
+        let config = GeneratorConfig { seed, ..GeneratorConfig::default() };
+        let mut materials = MaterialCatalog::new(seed);
+        let objects = placement::place(&config, &plan, &[], &lib, 1, &mut materials, &mut geometry).unwrap();
+        let names: BTreeSet<&str> = geometry.meshes.iter().map(|m| m.name.as_str()).collect();
+        assert_eq!(names.len(), geometry.meshes.len(), "a mesh was added twice");
+        assert!(geometry.meshes.len() <= objects.len());
+        if let Err(e) = check(&lib, &plan, &objects, None, &geometry, 1) {
+            panic!("OBJ library, seed {seed}: {e}");
+        }
+
+        // The embedded library builds a shape per object: as many meshes as objects, no two
+        // with the same vertices, and an asset name per object.
+        let lib = library();
+        let mut geometry = Geometry::default();
+        let mut materials = MaterialCatalog::new(seed);
+        let objects = placement::place(&config, &plan, &[], &lib, 1, &mut materials, &mut geometry).unwrap();
+        assert_eq!(geometry.meshes.len(), objects.len(), "seed {seed}");
+        let shapes: BTreeSet<Vec<[u32; 3]>> = geometry
+            .meshes
+            .iter()
+            .map(|m| m.primitives.iter().flat_map(|p| &p.positions).map(|p| p.to_array().map(f32::to_bits)).collect())
+            .collect();
+        assert_eq!(shapes.len(), objects.len(), "seed {seed}: two objects share a shape");
+        let assets: BTreeSet<&str> = objects.iter().map(|o| o.asset.as_str()).collect();
+        assert_eq!(assets.len(), objects.len(), "seed {seed}: two objects share an asset name");
+    }
 }
 
 #[test]

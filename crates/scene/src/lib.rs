@@ -8,7 +8,8 @@
 //!
 //! * [`config`]: what is asked for ([`config::GeneratorConfig`]) and its validation.
 //! * [`library`]: the room-type and furniture libraries (embedded, or folders at run time);
-//!   [`assets`] turns furniture OBJ meshes into scene meshes.
+//!   [`assets`] turns furniture OBJ meshes into scene meshes; [`procedural`] builds a shape of
+//!   its own for every object from its class's generator.
 //! * [`generate`]: runs the stages in order and returns a [`scene::Scene`].
 //! * [`floorplan`], [`structure`], [`placement`], [`decor`], [`lights`]: the stages.
 //! * [`materials`]: named surfaces to PBR materials with seeded procedural [`textures`].
@@ -35,6 +36,7 @@ pub mod lights;
 pub mod manifest;
 pub mod materials;
 pub mod placement;
+pub mod procedural;
 pub mod scene;
 pub mod structure;
 pub mod textures;

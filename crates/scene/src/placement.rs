@@ -29,6 +29,7 @@
 //! Requests that do not fit are skipped: a small room gets less furniture, never an error.
 
 use std::collections::BTreeMap;
+use std::rc::Rc;
 
 use glam::{Mat4, Vec2, Vec3, Vec4};
 use rand::Rng;
@@ -162,7 +163,7 @@ pub fn place_detailed(
     materials: &mut MaterialCatalog,
     geometry: &mut Geometry,
 ) -> Result<Placement, PlacementError> {
-    let mut placed: Vec<Placed<'_>> = Vec::new();
+    let mut placed: Vec<Placed> = Vec::new();
     let mut skipped = Vec::new();
     for room in &plan.rooms {
         let room_type = library.rooms.iter().find(|t| t.name == room.room_type).ok_or_else(|| {
@@ -222,9 +223,9 @@ pub fn place_detailed(
                         floor[crate::library::furniture::weighted_index(&mut rng, floor.iter().map(|v| v.weight))];
                 }
             }
-            let scale = draw_scale(&mut rng, variant, uniform);
+            let (shape, scale) = instantiate(&mut rng, variant, uniform);
             let material_variant = rng.random_range(0..MATERIAL_VARIANTS);
-            let mut result = place_one(&mut rng, &ctx, &placed, class, variant, scale);
+            let mut result = place_one(&mut rng, &ctx, &placed, class, shape, scale);
             if result.is_none() {
                 // One more go with another variant of the class (a single bed where a king
                 // did not fit).
@@ -232,8 +233,8 @@ pub fn place_detailed(
                 let other = &entry.variants
                     [crate::library::furniture::weighted_index(&mut rng, entry.variants.iter().map(|v| v.weight))];
                 if !std::ptr::eq(other, variant) {
-                    let scale = draw_scale(&mut rng, other, uniform);
-                    result = place_one(&mut rng, &ctx, &placed, class, other, scale);
+                    let (shape, scale) = instantiate(&mut rng, other, uniform);
+                    result = place_one(&mut rng, &ctx, &placed, class, shape, scale);
                 }
             }
             match result {
@@ -253,11 +254,12 @@ pub fn place_detailed(
 }
 
 /// One placed object before geometry is made.
-#[derive(Clone, Copy)]
-struct Placed<'a> {
+#[derive(Clone)]
+struct Placed {
     class: ObjectClass,
     room: u32,
-    variant: &'a FurnitureVariant,
+    /// The object's own shape (generated), or its library variant's shared mesh.
+    variant: Rc<FurnitureVariant>,
     scale: Vec3,
     yaw_deg: f32,
     translation: Vec3,
@@ -268,7 +270,7 @@ struct Placed<'a> {
     material_variant: u32,
 }
 
-impl Placed<'_> {
+impl Placed {
     fn footprint(&self) -> Rect {
         Rect { min: self.min.truncate(), max: self.max.truncate() }
     }
@@ -458,6 +460,30 @@ fn local_bounds(variant: &FurnitureVariant, scale: Vec3, yaw_deg: f32) -> (Vec3,
     (lo, hi)
 }
 
+/// The shape of one object of `variant` and the scale it is placed at. An OBJ variant keeps
+/// its shared mesh and draws a scale; a generator variant draws the size the same way, then a
+/// 64-bit shape seed, and builds a mesh of exactly that size (scale one).
+fn instantiate(rng: &mut ChaCha8Rng, variant: &FurnitureVariant, uniform: bool) -> (Rc<FurnitureVariant>, Vec3) {
+    let scale = draw_scale(rng, variant, uniform);
+    let Some(generator) = variant.generator else {
+        return (Rc::new(variant.clone()), scale);
+    };
+    let shape_seed: u64 = rng.random();
+    let mesh = generator.generate(variant.mesh.size() * scale, uniform, shape_seed);
+    let shape = FurnitureVariant {
+        name: format!("{}-{shape_seed:016x}", variant.name),
+        weight: variant.weight,
+        size: variant.size,
+        rule: variant.rule.clone(),
+        support_top: mesh.support_top(),
+        mesh,
+        generator: Some(generator),
+        had_normals: true,
+        had_uvs: true,
+    };
+    (Rc::new(shape), Vec3::ONE)
+}
+
 fn draw_scale(rng: &mut ChaCha8Rng, variant: &FurnitureVariant, uniform: bool) -> Vec3 {
     let native = variant.mesh.size();
     let mut draw = |r: [f32; 2]| if r[1] > r[0] { rng.random_range(r[0]..=r[1]) } else { r[0] };
@@ -513,15 +539,16 @@ pub fn keep_out_zones(plan: &Floorplan, thresholds: &[Threshold], room: &Room, w
 }
 
 /// Tries the variant's rules in order; `None` when nothing fits.
-fn place_one<'a>(
+fn place_one(
     rng: &mut ChaCha8Rng,
     ctx: &RoomContext,
-    placed: &[Placed<'a>],
+    placed: &[Placed],
     class: ObjectClass,
-    variant: &'a FurnitureVariant,
+    variant: Rc<FurnitureVariant>,
     scale: Vec3,
-) -> Option<Placed<'a>> {
-    let Rule { on, beside, place } = &variant.rule;
+) -> Option<Placed> {
+    let rule = variant.rule.clone();
+    let Rule { on, beside, place } = &rule;
     let base = Placed {
         class,
         room: ctx.room,
@@ -536,7 +563,7 @@ fn place_one<'a>(
         material_variant: 0,
     };
     let room_objects = &placed[ctx.first..];
-    let ids = |f: &dyn Fn(&Placed<'_>) -> bool| -> Vec<usize> {
+    let ids = |f: &dyn Fn(&Placed) -> bool| -> Vec<usize> {
         room_objects.iter().enumerate().filter(|(_, p)| f(p)).map(|(i, _)| ctx.first + i).collect()
     };
     let supports = ids(&|p| p.on.is_none() && on.contains(&p.class) && p.variant.support_top.is_some());
@@ -545,7 +572,7 @@ fn place_one<'a>(
             let s = supports[rng.random_range(0..supports.len())];
             let Some((top_z, top)) = placed[s].support_top() else { continue };
             let yaw = (placed[s].yaw_deg + rng.random_range(-25.0_f32..=25.0)).rem_euclid(360.0);
-            let (lo, hi) = local_bounds(variant, scale, yaw);
+            let (lo, hi) = local_bounds(&base.variant, scale, yaw);
             let (Some(x), Some(y)) =
                 (draw_in(rng, top.min.x - lo.x, top.max.x - hi.x), draw_in(rng, top.min.y - lo.y, top.max.y - hi.y))
             else {
@@ -559,7 +586,7 @@ fn place_one<'a>(
                 max: hi + t,
                 on: Some(s),
                 by: PlacedBy::On,
-                ..base
+                ..base.clone()
             };
             let fp = c.footprint();
             if top.contains(&fp, 1e-4)
@@ -577,7 +604,7 @@ fn place_one<'a>(
             // Side of the anchor (0 south, 1 east, 2 north, 3 west); the object faces the anchor.
             let side = rng.random_range(0..4_u32);
             let yaw = [0.0, 90.0, 180.0, 270.0][side as usize];
-            let (lo, hi) = local_bounds(variant, scale, yaw);
+            let (lo, hi) = local_bounds(&base.variant, scale, yaw);
             let gap = rng.random_range(0.05_f32..=0.2);
             let along = |rng: &mut ChaCha8Rng, amin: f32, amax: f32, l: f32, h: f32| {
                 let centre = (amin + amax) * 0.5 - (l + h) * 0.5;
@@ -590,7 +617,8 @@ fn place_one<'a>(
                 _ => Vec2::new(a.min.x - gap - hi.x, along(rng, a.min.y, a.max.y, lo.y, hi.y)),
             };
             let t = t.extend(0.0);
-            let c = Placed { yaw_deg: yaw, translation: t, min: lo + t, max: hi + t, by: PlacedBy::Beside, ..base };
+            let c =
+                Placed { yaw_deg: yaw, translation: t, min: lo + t, max: hi + t, by: PlacedBy::Beside, ..base.clone() };
             if fits_on_floor(ctx, room_objects, &c) {
                 return Some(c);
             }
@@ -602,7 +630,7 @@ fn place_one<'a>(
             Place::Wall | Place::Corner => {
                 // The back faces the wall of `side` (0 south, 1 east, 2 north, 3 west).
                 let yaw = [0.0, 90.0, 180.0, 270.0][side as usize];
-                let (lo, hi) = local_bounds(variant, scale, yaw);
+                let (lo, hi) = local_bounds(&base.variant, scale, yaw);
                 let r = ctx.interior;
                 // Wall pieces also try the ends of the wall now and then: it packs small rooms.
                 let corner = *place == Place::Corner || attempt % 3 == 2;
@@ -623,11 +651,11 @@ fn place_one<'a>(
                 let Some(t) = t else { continue };
                 let t = t.extend(0.0);
                 let by = if *place == Place::Corner { PlacedBy::Corner } else { PlacedBy::Wall };
-                Placed { yaw_deg: yaw, translation: t, min: lo + t, max: hi + t, by, ..base }
+                Placed { yaw_deg: yaw, translation: t, min: lo + t, max: hi + t, by, ..base.clone() }
             }
             Place::Center => {
                 let yaw = [0.0, 90.0, 180.0, 270.0][side as usize];
-                let (lo, hi) = local_bounds(variant, scale, yaw);
+                let (lo, hi) = local_bounds(&base.variant, scale, yaw);
                 let margin = if attempt < TRIES / 2 { CENTER_MARGIN_M } else { 0.2 };
                 let r = ctx.interior;
                 let (Some(x), Some(y)) = (
@@ -637,7 +665,7 @@ fn place_one<'a>(
                     continue;
                 };
                 let t = Vec3::new(x, y, 0.0);
-                Placed { yaw_deg: yaw, translation: t, min: lo + t, max: hi + t, by: PlacedBy::Center, ..base }
+                Placed { yaw_deg: yaw, translation: t, min: lo + t, max: hi + t, by: PlacedBy::Center, ..base.clone() }
             }
         };
         if fits_on_floor(ctx, room_objects, &c) {
@@ -655,7 +683,7 @@ fn draw_in(rng: &mut ChaCha8Rng, lo: f32, hi: f32) -> Option<f32> {
     Some(if hi > lo { rng.random_range(lo..=hi) } else { lo })
 }
 
-fn fits_on_floor(ctx: &RoomContext, room_objects: &[Placed<'_>], c: &Placed<'_>) -> bool {
+fn fits_on_floor(ctx: &RoomContext, room_objects: &[Placed], c: &Placed) -> bool {
     let fp = c.footprint();
     ctx.interior.contains(&fp, 1e-4)
         && !ctx.zones.iter().any(|z| c.max.z > z.above_m && z.rect.overlaps(&fp, 0.0))
@@ -666,7 +694,7 @@ fn fits_on_floor(ctx: &RoomContext, room_objects: &[Placed<'_>], c: &Placed<'_>)
 /// Adds meshes (one per asset and colour variant, shared by instances), nodes and manifest
 /// objects.
 fn build_geometry(
-    placed: &[Placed<'_>],
+    placed: &[Placed],
     first_instance_id: u32,
     materials: &mut MaterialCatalog,
     geometry: &mut Geometry,

@@ -1,4 +1,5 @@
-//! Furniture classes: `furniture/<class>/<class>.toml` and the OBJ meshes beside it.
+//! Furniture classes: `furniture/<class>/<class>.toml`, with the OBJ meshes beside it or the
+//! generators it names.
 //!
 //! ```toml
 //! rooms = ["living_room", "office"]   # room types this class may be requested by
@@ -14,7 +15,8 @@
 //! surfaces = { "Material.001" = "wood" }   # optional: OBJ material name -> surface
 //!
 //! [[variant]]
-//! obj = "sofa_2seat"                  # furniture/sofa/sofa_2seat.obj (+ its .mtl)
+//! generator = "sofa"                  # a shape of its own per object (crate::procedural), or
+//! # obj = "sofa_2seat"                # one mesh for all: furniture/sofa/sofa_2seat.obj (+ .mtl)
 //! weight = 2.0                        # optional relative chance, default 1
 //! width_m = [1.4, 1.8]                # optional per-variant overrides of the size ranges,
 //! place = "corner"                    #   of place, beside and on
@@ -23,6 +25,9 @@
 //! Placement tries, in order: standing `on` a support of a listed class in the same room,
 //! then `beside` an object of a listed class, then the `place` rule; an object that fits
 //! nowhere is skipped.
+//!
+//! A generator variant builds every object's shape at the size drawn for it; an OBJ variant
+//! scales its one mesh to that size. Both may be mixed in one class.
 //!
 //! Surfaces: faces are drawn with the surface their OBJ material is named after (`usemtl
 //! wood`, the names of [`crate::materials::SURFACES`]). A material name listed in `surfaces`
@@ -42,6 +47,7 @@ use toml::Spanned;
 use super::{LibraryError, LibraryFile, RoomType};
 use crate::assets::{self, AssetMesh, UpAxis};
 use crate::materials::MaterialCatalog;
+use crate::procedural::Generator;
 use crate::scene::ObjectClass;
 
 /// Surface for OBJ materials that name no surface, unless the class TOML says otherwise.
@@ -87,6 +93,10 @@ pub struct FurnitureVariant {
     pub mesh: AssetMesh,
     /// [`AssetMesh::support_top`] of `mesh`, computed once: where objects `on` this one stand.
     pub support_top: Option<(f32, glam::Vec2, glam::Vec2)>,
+    /// The family that builds each object's own shape; `None` for an OBJ mesh shared by every
+    /// object of the variant. With a generator, `mesh` is the family's prototype: placement
+    /// sizes candidates by it, then builds the object's shape at the drawn size.
+    pub generator: Option<&'static Generator>,
     /// Whether the OBJ carried normals and UVs (else they were computed).
     pub had_normals: bool,
     pub had_uvs: bool,
@@ -127,7 +137,8 @@ struct ClassFile {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct VariantEntry {
-    obj: Spanned<String>,
+    obj: Option<Spanned<String>>,
+    generator: Option<Spanned<String>>,
     weight: Option<Spanned<f32>>,
     width_m: Option<Spanned<[f32; 2]>>,
     depth_m: Option<Spanned<[f32; 2]>>,
@@ -230,10 +241,31 @@ fn parse_class(file: &LibraryFile, all: &[LibraryFile]) -> Result<FurnitureClass
     for entry in &raw.variant {
         let offset = entry.span().start;
         let v = entry.get_ref();
-        let name = v.obj.get_ref().clone();
-        let obj_path = file.path.with_file_name(format!("{name}.obj"));
-        let Some(obj) = all.iter().find(|f| f.path == obj_path) else {
-            return Err(at(v.obj.span().start, format!("no mesh {} for variant '{name}'", obj_path.display())));
+        let (name, source) = match (&v.obj, &v.generator) {
+            (Some(obj), None) => (obj.get_ref().clone(), Source::Obj(obj.span().start)),
+            (None, Some(g)) => {
+                let Some(generator) = Generator::by_name(g.get_ref()) else {
+                    let known: Vec<&str> =
+                        crate::procedural::GENERATORS.iter().filter(|x| x.class == class).map(|x| x.name).collect();
+                    return Err(at(
+                        g.span().start,
+                        format!("unknown generator '{}' (known for {class}: {})", g.get_ref(), known.join(", ")),
+                    ));
+                };
+                if generator.class != class {
+                    return Err(at(
+                        g.span().start,
+                        format!("generator '{}' builds {}, not {class}", generator.name, generator.class),
+                    ));
+                }
+                (generator.name.to_string(), Source::Generator(generator))
+            }
+            _ => {
+                return Err(at(
+                    offset,
+                    "a variant names exactly one of obj = \"<stem>\" or generator = \"<name>\"".into(),
+                ));
+            }
         };
         let weight = v.weight.as_ref().map_or(Ok(1.0), |w| {
             let x = *w.get_ref();
@@ -264,27 +296,63 @@ fn parse_class(file: &LibraryFile, all: &[LibraryFile]) -> Result<FurnitureClass
             beside: v.beside.as_ref().map(classes_of).transpose()?.unwrap_or_else(|| class_beside.clone()),
             place,
         };
-        let siblings: Vec<LibraryFile> = all.iter().filter(|f| f.path.parent() == obj.path.parent()).cloned().collect();
-        let (mesh, info) = assets::load_obj(obj, &siblings, up, |material| match material {
-            Some(m) if surface_map.contains_key(m) => surface_map[m].clone(),
-            Some(m) if MaterialCatalog::is_surface(m) => m.to_string(),
-            _ => default_surface.clone(),
-        })?;
-        variants.push(FurnitureVariant {
-            name,
-            weight,
-            size: SizeRange { width_m, depth_m, height_m },
-            rule,
-            support_top: mesh.support_top(),
-            mesh,
-            had_normals: info.had_normals,
-            had_uvs: info.had_uvs,
-        });
+        let size = SizeRange { width_m, depth_m, height_m };
+        let variant = match source {
+            Source::Obj(span) => {
+                let obj_path = file.path.with_file_name(format!("{name}.obj"));
+                let Some(obj) = all.iter().find(|f| f.path == obj_path) else {
+                    return Err(at(span, format!("no mesh {} for variant '{name}'", obj_path.display())));
+                };
+                let siblings: Vec<LibraryFile> =
+                    all.iter().filter(|f| f.path.parent() == obj.path.parent()).cloned().collect();
+                let (mesh, info) = assets::load_obj(obj, &siblings, up, |material| match material {
+                    Some(m) if surface_map.contains_key(m) => surface_map[m].clone(),
+                    Some(m) if MaterialCatalog::is_surface(m) => m.to_string(),
+                    _ => default_surface.clone(),
+                })?;
+                FurnitureVariant {
+                    name,
+                    weight,
+                    size,
+                    rule,
+                    support_top: mesh.support_top(),
+                    mesh,
+                    generator: None,
+                    had_normals: info.had_normals,
+                    had_uvs: info.had_uvs,
+                }
+            }
+            Source::Generator(generator) => {
+                let mid = |r: [f32; 2]| (r[0] + r[1]) * 0.5;
+                let height = mid(height_m);
+                let nominal = glam::Vec3::new(width_m.map_or(height, mid), depth_m.map_or(height, mid), height);
+                let mesh = generator.prototype(nominal, raw.uniform_scale);
+                FurnitureVariant {
+                    name,
+                    weight,
+                    size,
+                    rule,
+                    support_top: mesh.support_top(),
+                    mesh,
+                    generator: Some(generator),
+                    had_normals: true,
+                    had_uvs: true,
+                }
+            }
+        };
+        variants.push(variant);
     }
     if variants.iter().all(|v| v.weight <= 0.0) {
         return Err(at(0, "every variant has weight 0".into()));
     }
     Ok(FurnitureClass { class, rooms: raw.rooms.into_inner(), uniform_scale: raw.uniform_scale, variants })
+}
+
+/// Where a variant's shape comes from while its entry is parsed.
+enum Source {
+    /// An OBJ file; the offset of the `obj` value for errors.
+    Obj(usize),
+    Generator(&'static Generator),
 }
 
 #[derive(Deserialize)]
@@ -404,6 +472,26 @@ mod tests {
         let text = GOOD.replace("width_m = [1, 2]", "width_m = [2, 1]");
         let err = parse_furniture(&lib(&[("f/bed/bed.toml", &text), ("f/bed/a.obj", BOX_OBJ)])).unwrap_err();
         assert_eq!(err.line, Some(3), "{err}");
+    }
+
+    #[test]
+    fn generator_variants_load_and_bad_ones_name_the_line() {
+        let text = GOOD.replace("obj = \"a\"", "generator = \"bed\"");
+        let classes = parse_furniture(&lib(&[("f/bed/bed.toml", &text)])).unwrap();
+        let v = &classes[0].variants[0];
+        assert_eq!(v.generator.map(|g| g.name), Some("bed"));
+        assert!(v.support_top.is_some() && v.mesh.triangle_count() > 12);
+        let cases = [
+            ("generator = \"piano\"", "unknown generator 'piano' (known for bed: bed)"),
+            ("generator = \"sofa\"", "generator 'sofa' builds sofa, not bed"),
+            ("obj = \"a\"\ngenerator = \"bed\"", "exactly one of obj"),
+        ];
+        for (variant, message) in cases {
+            let text = GOOD.replace("obj = \"a\"", variant);
+            let err = parse_furniture(&lib(&[("f/bed/bed.toml", &text), ("f/bed/a.obj", BOX_OBJ)])).unwrap_err();
+            assert!(err.to_string().contains(message), "{err}");
+            assert!(err.line.is_some_and(|l| l >= 7), "{err}");
+        }
     }
 
     #[test]
