@@ -1,4 +1,4 @@
-//! Renders the procedural furniture: one picture per class, a row per generator, one shape per
+//! Renders the procedural furniture: one picture per class and furnishing, a row per generator, one shape per
 //! column (shape seeds 1..=N), with scene-gen's own renderer and materials.
 //!
 //! ```text
@@ -16,7 +16,7 @@ use scene_gen::library::Library;
 use scene_gen::materials::MaterialCatalog;
 use scene_gen::render::test_util::{add_material, box_primitive, camera, directional_light, empty_scene};
 use scene_gen::render::{RenderSettings, Renderer, luminance};
-use scene_gen::scene::{LightGroup, Node, ObjectClass, Semantic};
+use scene_gen::scene::{Kind, LightGroup, Node, Semantic};
 
 const CELL_M: f32 = 1.4;
 
@@ -41,7 +41,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let columns: u32 = args.next().map_or(Ok(5), |n| n.parse())?;
     std::fs::create_dir_all(&out)?;
     let library = Library::embedded()?;
-    for class in ObjectClass::ALL {
+    for class in Kind::all() {
         let Some(entry) = library.furniture_class(class) else { continue };
         let variants: Vec<_> = entry.variants.iter().filter(|v| v.generator.is_some()).collect();
         let mut scene = empty_scene();
@@ -92,7 +92,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         scene.lights.push(directional_light(LightGroup::Day, Vec3::new(-0.3, -0.5, -1.0), 8.0));
         let renderer = Renderer::new(&scene, RenderSettings::standard());
         let width = 220 * columns;
-        let height = (150.0 * rows + 150.0) as u32;
+        let height = (170.0 * rows + 260.0) as u32;
         // In front of the rows (fronts face +Y), looking down at them.
         let eye = Vec3::new(cols * CELL_M * 0.5, rows * CELL_M + 2.2 + rows * 0.6, 2.0 + rows * 0.9);
         let target = Vec3::new(cols * CELL_M * 0.5, rows * CELL_M * 0.5, 0.3);

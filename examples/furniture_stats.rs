@@ -1,5 +1,6 @@
-//! Furniture variety and density over many seeds: distinct shapes per class, objects per room
-//! and per square metre by room type, triangles per object, and the time per house.
+//! Furniture variety and density over many seeds: distinct shapes per class and furnishing
+//! kind, objects and furnishings per room and per square metre by room type, triangles per
+//! piece, and the time per house.
 //!
 //! ```text
 //! cargo run --release --example furniture_stats -- [SEEDS=100] [--furniture DIR]
@@ -18,7 +19,7 @@ use scene_gen::config::GeneratorConfig;
 use scene_gen::floorplan;
 use scene_gen::generate::generate;
 use scene_gen::library::{Library, LibrarySource};
-use scene_gen::scene::{ObjectClass, Semantic};
+use scene_gen::scene::{Kind, Semantic};
 
 /// Per-class tallies.
 #[derive(Default)]
@@ -33,7 +34,22 @@ struct ClassStats {
 struct RoomStats {
     rooms: usize,
     objects: usize,
+    furnishings: usize,
     area_m2: f64,
+}
+
+fn print_room(name: &str, r: &RoomStats) {
+    let n = r.rooms.max(1) as f64;
+    let pieces = (r.objects + r.furnishings) as f64;
+    println!(
+        "| {name} | {} | {:.2} | {:.2} | {:.2} | {:.3} | {:.1} |",
+        r.rooms,
+        r.objects as f64 / n,
+        r.furnishings as f64 / n,
+        pieces / n,
+        pieces / r.area_m2.max(1e-9),
+        r.area_m2 / n
+    );
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -55,7 +71,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         Some(dir) => Library::load(LibrarySource::Embedded, LibrarySource::Folder(dir))?,
         None => Library::embedded()?,
     };
-    let mut classes: BTreeMap<ObjectClass, ClassStats> = BTreeMap::new();
+    let mut classes: BTreeMap<Kind, ClassStats> = BTreeMap::new();
     let mut rooms: BTreeMap<String, RoomStats> = BTreeMap::new();
     let (mut plan_ms, mut house_ms) = (Vec::new(), Vec::new());
     for seed in 0..seeds {
@@ -73,10 +89,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             entry.rooms += 1;
             entry.area_m2 += f64::from((hi - lo).x * (hi - lo).y);
             entry.objects += scene.objects.iter().filter(|o| o.room == room.id).count();
+            entry.furnishings += scene.furnishings.iter().filter(|f| f.room == room.id).count();
         }
         for node in &scene.geometry.nodes {
-            let Semantic::Object { id } = node.semantic else { continue };
-            let class = scene.objects[id as usize].class;
+            let class = match node.semantic {
+                Semantic::Object { id } => Kind::Object(scene.objects[id as usize].class),
+                Semantic::Furnishing { id } => Kind::Furnishing(scene.furnishings[id as usize].kind),
+                _ => continue,
+            };
             let mesh = &scene.geometry.meshes[node.mesh];
             let bits: Vec<u32> = mesh
                 .primitives
@@ -93,7 +113,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
 
     let source = furniture.as_ref().map_or("embedded".to_string(), |d| d.display().to_string());
     println!("{seeds} houses (seeds 0..{seeds}, default envelope), furniture library: {source}\n");
-    println!("| class | objects | distinct shapes | distinct share | triangles per object |");
+    println!("| class or furnishing | pieces | distinct shapes | distinct share | triangles per piece |");
     println!("|---|---|---|---|---|");
     let (mut all_objects, mut all_shapes) = (0, 0);
     for (class, s) in &classes {
@@ -108,28 +128,24 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         );
     }
     println!("| all | {all_objects} | {all_shapes} | {:.3} | |", all_shapes as f64 / all_objects.max(1) as f64);
-    println!("\n| room type | rooms | objects per room | objects per m^2 | mean interior m^2 |");
-    println!("|---|---|---|---|---|");
-    let (mut n_rooms, mut n_objects, mut area) = (0, 0, 0.0);
-    for (name, r) in &rooms {
-        n_rooms += r.rooms;
-        n_objects += r.objects;
-        area += r.area_m2;
-        println!(
-            "| {name} | {} | {:.2} | {:.3} | {:.1} |",
-            r.rooms,
-            r.objects as f64 / r.rooms as f64,
-            r.objects as f64 / r.area_m2,
-            r.area_m2 / r.rooms as f64
-        );
-    }
     println!(
-        "| all | {n_rooms} | {:.2} | {:.3} | {:.1} |",
-        n_objects as f64 / n_rooms as f64,
-        n_objects as f64 / area,
-        area / n_rooms as f64
+        "\n| room type | rooms | objects per room | furnishings per room | pieces per room | pieces per m^2 | mean interior m^2 |"
     );
-    println!("\nobjects per house: {:.1}", n_objects as f64 / seeds as f64);
+    println!("|---|---|---|---|---|---|---|");
+    let mut all = RoomStats::default();
+    for (name, r) in &rooms {
+        all.rooms += r.rooms;
+        all.objects += r.objects;
+        all.furnishings += r.furnishings;
+        all.area_m2 += r.area_m2;
+        print_room(name, r);
+    }
+    print_room("all", &all);
+    println!(
+        "\nper house: {:.1} objects, {:.1} furnishings",
+        all.objects as f64 / seeds as f64,
+        all.furnishings as f64 / seeds as f64
+    );
     let (plan, house) = (median(plan_ms), median(house_ms));
     println!("median per house: floorplan {plan:.2} ms, whole house {house:.1} ms (the rest: {:.1} ms)", house - plan);
     Ok(())

@@ -216,6 +216,7 @@ pub fn feature_scene() -> Scene {
             object(0, ObjectClass::Table, 2, 0, "table/box", Vec3::new(1.6, 2.4, 0.0), Vec3::new(2.4, 3.6, 0.75)),
             object(1, ObjectClass::Chair, 3, 1, "chair/box", Vec3::new(6.75, 0.75, 0.0), Vec3::new(7.25, 1.25, 0.9)),
         ],
+        furnishings: Vec::new(),
         lights,
         geometry,
     }

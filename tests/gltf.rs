@@ -260,3 +260,26 @@ fn cli_writes_gltf_with_its_buffer_and_textures() {
     assert!(!out.join("scene.glb").exists());
     std::fs::remove_dir_all(&out).unwrap();
 }
+
+/// Furnishings (wardrobes, counters...) are nodes named `<kind>_<id>` that carry their kind and
+/// room but no class id or instance id: they are not detection targets.
+#[test]
+fn furnishings_are_unlabelled_nodes_with_their_kind() {
+    use scene_gen::{config::GeneratorConfig, generate::generate, library::Library, scene::Semantic};
+    let scene =
+        generate(&GeneratorConfig { seed: 7, ..GeneratorConfig::default() }, &Library::embedded().unwrap()).unwrap();
+    assert!(!scene.furnishings.is_empty(), "house 7 has furnishings");
+    let gltf = parse(&to_glb(&scene));
+    for f in &scene.furnishings {
+        assert_eq!(scene.label(Semantic::Furnishing { id: f.id }), None);
+        let name = format!("{}_{}", f.kind.name(), f.id);
+        let e = extras(node(&gltf.document, &name).extras());
+        let room_type = scene.room(f.room).map(|r| r.room_type.clone());
+        assert_eq!(
+            e,
+            serde_json::json!({"kind": "furnishing", "id": f.id, "furnishing": f.kind.name(), "room": f.room,
+                               "room_type": room_type}),
+            "{name}"
+        );
+    }
+}

@@ -13,7 +13,7 @@ use scene_gen::generate::generate;
 use scene_gen::library::{Library, LibrarySource};
 use scene_gen::materials::MaterialCatalog;
 use scene_gen::placement::{self, PlacedBy};
-use scene_gen::scene::{Door, Geometry, Object, ObjectClass, Room, Semantic, Window};
+use scene_gen::scene::{Door, Furnishing, FurnishingKind, Geometry, Object, ObjectClass, Room, Semantic, Window};
 
 #[allow(dead_code)]
 #[path = "../examples/generate_furniture.rs"]
@@ -318,18 +318,58 @@ fn support_top(mesh: &scene_gen::scene::Mesh) -> Option<(f32, Vec2, Vec2)> {
 }
 
 /// Checks every placement invariant of one furnished plan; `placed_by` when known.
+/// The placed furniture of one plan: the objects and the furnishings, each with the rule that
+/// placed it when known.
+struct Furnished<'a> {
+    objects: &'a [Object],
+    placed_by: Option<&'a [PlacedBy]>,
+    furnishings: &'a [Furnishing],
+    furnishings_placed_by: Option<&'a [PlacedBy]>,
+}
+
+/// A furnishing seen as a floor object for the checks objects and furnishings share; its
+/// class is a stand-in the checks never read for furnishings.
+fn as_floor_object(f: &Furnishing) -> Object {
+    Object {
+        id: f.id,
+        class: ObjectClass::Sofa,
+        instance_id: 0,
+        room: f.room,
+        asset: f.asset.clone(),
+        min: f.min,
+        max: f.max,
+        yaw_deg: f.yaw_deg,
+        on: None,
+    }
+}
+
 fn check(
     lib: &Library,
     plan: &Floorplan,
-    objects: &[Object],
-    placed_by: Option<&[PlacedBy]>,
+    furnished: &Furnished<'_>,
     geometry: &Geometry,
     first_instance_id: u32,
 ) -> Result<(), String> {
     const EPS: f32 = 1e-3;
+    let objects = furnished.objects;
+    // Objects first, then furnishings: (item, its node's semantic, is a furnishing, rule).
+    let mut items: Vec<(Object, Semantic, bool, Option<PlacedBy>)> = Vec::new();
     for (i, o) in objects.iter().enumerate() {
-        let tag = format!("object {} ({}, {})", o.id, o.asset, o.class);
-        if o.id != i as u32 || o.instance_id != first_instance_id + i as u32 {
+        items.push((o.clone(), Semantic::Object { id: o.id }, false, furnished.placed_by.map(|b| b[i])));
+    }
+    for (i, f) in furnished.furnishings.iter().enumerate() {
+        if f.id != i as u32 {
+            return Err(format!("furnishing {} ({}): ids not consecutive", f.id, f.asset));
+        }
+        let by = furnished.furnishings_placed_by.map(|b| b[i]);
+        items.push((as_floor_object(f), Semantic::Furnishing { id: f.id }, true, by));
+    }
+    for (i, (o, semantic, is_furnishing, by)) in items.iter().enumerate() {
+        let is_furnishing = *is_furnishing;
+        let kind =
+            if is_furnishing { o.asset.split('/').next().unwrap_or("?").to_string() } else { o.class.to_string() };
+        let tag = format!("{} {} ({}, {kind})", if is_furnishing { "furnishing" } else { "object" }, o.id, o.asset);
+        if !is_furnishing && (o.id != i as u32 || o.instance_id != first_instance_id + i as u32) {
             return Err(format!("{tag}: ids not consecutive"));
         }
         let room = plan.rooms.iter().find(|r| r.id == o.room).ok_or(format!("{tag}: no room"))?;
@@ -338,12 +378,8 @@ fn check(
             return Err(format!("{tag}: outside the interior of room {}", room.id));
         }
         // Node transform reproduces the manifest box.
-        let node = geometry
-            .nodes
-            .iter()
-            .find(|n| n.semantic == Semantic::Object { id: o.id })
-            .ok_or(format!("{tag}: no node"))?;
-        if node.name != format!("{}_{}", o.class, o.id) {
+        let node = geometry.nodes.iter().find(|n| n.semantic == *semantic).ok_or(format!("{tag}: no node"))?;
+        if node.name != format!("{kind}_{}", o.id) {
             return Err(format!("{tag}: node name {}", node.name));
         }
         let (mut bmin, mut bmax) = (Vec3::MAX, Vec3::MIN);
@@ -356,7 +392,7 @@ fn check(
             return Err(format!("{tag}: node box {bmin}..{bmax} != manifest {}..{}", o.min, o.max));
         }
         // Uniformly scaled classes (balls, plants, lamps) keep their proportions.
-        if lib.furniture_class(o.class).is_some_and(|c| c.uniform_scale) {
+        if !is_furnishing && lib.furniture_class(o.class).is_some_and(|c| c.uniform_scale) {
             let m = node.transform;
             let (sx, sy, sz) = (m.x_axis.length(), m.y_axis.length(), m.z_axis.length());
             if (sx - sz).abs() > 1e-4 * sz || (sy - sz).abs() > 1e-4 * sz {
@@ -391,8 +427,9 @@ fn check(
                 }
             }
         }
-        for other in &objects[..i] {
-            if o.on == Some(other.id) || other.on == Some(o.id) {
+        for (other, _, other_is_furnishing, _) in &items[..i] {
+            let related = !is_furnishing && !other_is_furnishing && (o.on == Some(other.id) || other.on == Some(o.id));
+            if related {
                 continue;
             }
             if overlap_area(o, other) > 1e-6 {
@@ -422,8 +459,8 @@ fn check(
                 return Err(format!("{tag}: taller than the sill in front of window {}", window.id));
             }
         }
-        if let Some(by) = placed_by {
-            if matches!(by[i], PlacedBy::Wall | PlacedBy::Corner) {
+        if let Some(by) = *by {
+            if matches!(by, PlacedBy::Wall | PlacedBy::Corner) {
                 let gap = match (o.yaw_deg.round() as i32).rem_euclid(360) {
                     0 => o.min.y - lo.y,
                     90 => hi.x - o.max.x,
@@ -434,13 +471,14 @@ fn check(
                     return Err(format!("{tag}: back {gap} m from the wall"));
                 }
             }
-            if (by[i] == PlacedBy::On) != o.on.is_some() {
-                return Err(format!("{tag}: placed_by {:?} but on {:?}", by[i], o.on));
+            if (by == PlacedBy::On) != o.on.is_some() {
+                return Err(format!("{tag}: placed_by {by:?} but on {:?}", o.on));
             }
         }
     }
     for room in &plan.rooms {
-        let floor: Vec<Object> = objects.iter().filter(|o| o.room == room.id && o.on.is_none()).cloned().collect();
+        let floor: Vec<Object> =
+            items.iter().map(|(o, ..)| o).filter(|o| o.room == room.id && o.on.is_none()).cloned().collect();
         doors_connected(plan, room, &floor)?;
     }
     Ok(())
@@ -462,7 +500,13 @@ fn hand_built_plans_keep_every_invariant_over_500_seeds() {
         let first = 1 + plan.doors.len() as u32;
         let placement =
             placement::place_detailed(&config, &plan, &[], &lib, first, &mut materials, &mut geometry).unwrap();
-        if let Err(e) = check(&lib, &plan, &placement.objects, Some(&placement.placed_by), &geometry, first) {
+        let furnished = Furnished {
+            objects: &placement.objects,
+            placed_by: Some(&placement.placed_by),
+            furnishings: &placement.furnishings,
+            furnishings_placed_by: Some(&placement.furnishings_placed_by),
+        };
+        if let Err(e) = check(&lib, &plan, &furnished, &geometry, first) {
             panic!("seed {seed}: {e}");
         }
         // Same seed, same result.
@@ -500,11 +544,15 @@ fn obj_meshes_are_shared_and_generated_shapes_are_not() {
         let mut geometry = Geometry::default();
         let config = GeneratorConfig { seed, ..GeneratorConfig::default() };
         let mut materials = MaterialCatalog::new(seed);
-        let objects = placement::place(&config, &plan, &[], &lib, 1, &mut materials, &mut geometry).unwrap();
+        let (objects, furnishings) =
+            placement::place(&config, &plan, &[], &lib, 1, &mut materials, &mut geometry).unwrap();
         let names: BTreeSet<&str> = geometry.meshes.iter().map(|m| m.name.as_str()).collect();
         assert_eq!(names.len(), geometry.meshes.len(), "a mesh was added twice");
         assert!(geometry.meshes.len() <= objects.len());
-        if let Err(e) = check(&lib, &plan, &objects, None, &geometry, 1) {
+        assert!(furnishings.is_empty(), "the OBJ library has no furnishing classes");
+        let furnished =
+            Furnished { objects: &objects, placed_by: None, furnishings: &furnishings, furnishings_placed_by: None };
+        if let Err(e) = check(&lib, &plan, &furnished, &geometry, 1) {
             panic!("OBJ library, seed {seed}: {e}");
         }
 
@@ -513,14 +561,15 @@ fn obj_meshes_are_shared_and_generated_shapes_are_not() {
         let lib = library();
         let mut geometry = Geometry::default();
         let mut materials = MaterialCatalog::new(seed);
-        let objects = placement::place(&config, &plan, &[], &lib, 1, &mut materials, &mut geometry).unwrap();
-        assert_eq!(geometry.meshes.len(), objects.len(), "seed {seed}");
+        let (objects, furnishings) =
+            placement::place(&config, &plan, &[], &lib, 1, &mut materials, &mut geometry).unwrap();
+        assert_eq!(geometry.meshes.len(), objects.len() + furnishings.len(), "seed {seed}");
         let shapes: BTreeSet<Vec<[u32; 3]>> = geometry
             .meshes
             .iter()
             .map(|m| m.primitives.iter().flat_map(|p| &p.positions).map(|p| p.to_array().map(f32::to_bits)).collect())
             .collect();
-        assert_eq!(shapes.len(), objects.len(), "seed {seed}: two objects share a shape");
+        assert_eq!(shapes.len(), geometry.meshes.len(), "seed {seed}: two objects share a shape");
         let assets: BTreeSet<&str> = objects.iter().map(|o| o.asset.as_str()).collect();
         assert_eq!(assets.len(), objects.len(), "seed {seed}: two objects share an asset name");
     }
@@ -530,6 +579,7 @@ fn obj_meshes_are_shared_and_generated_shapes_are_not() {
 fn generate_places_furniture_by_the_rules() {
     let lib = library();
     let mut classes = BTreeSet::new();
+    let mut kinds = BTreeSet::new();
     let envelopes = [(15.0, 15.0, 3.0), (20.0, 10.0, 2.8), (10.0, 10.0, 3.0)];
     for (seed, (width_m, depth_m, height_m)) in (0..500_u64).flat_map(|s| envelopes.map(|e| (s, e))) {
         let envelope = scene_gen::scene::Envelope { width_m, depth_m, height_m };
@@ -542,13 +592,21 @@ fn generate_places_furniture_by_the_rules() {
             windows: scene.windows.clone(),
         };
         let first = scene.thresholds.iter().map(|t| t.instance_id).max().unwrap_or(0) + 1;
-        if let Err(e) = check(&lib, &plan, &scene.objects, None, &scene.geometry, first) {
+        let furnished = Furnished {
+            objects: &scene.objects,
+            placed_by: None,
+            furnishings: &scene.furnishings,
+            furnishings_placed_by: None,
+        };
+        if let Err(e) = check(&lib, &plan, &furnished, &scene.geometry, first) {
             panic!("seed {seed}: {e}");
         }
         assert!(!scene.objects.is_empty(), "seed {seed}: no furniture");
         classes.extend(scene.objects.iter().map(|o| o.class));
+        kinds.extend(scene.furnishings.iter().map(|f| f.kind));
     }
     assert_eq!(classes.len(), 10, "classes seen through generate() over 500 seeds x 3 envelopes: {classes:?}");
+    assert_eq!(kinds.len(), FurnishingKind::ALL.len(), "furnishings seen: {kinds:?}");
 }
 
 fn place_and_check(lib: &Library, seed: u64) -> Result<Vec<Object>, String> {
@@ -559,7 +617,13 @@ fn place_and_check(lib: &Library, seed: u64) -> Result<Vec<Object>, String> {
     let placement =
         placement::place_detailed(&config, &plan, &[], lib, first, &mut MaterialCatalog::new(seed), &mut geometry)
             .map_err(|e| e.to_string())?;
-    check(lib, &plan, &placement.objects, Some(&placement.placed_by), &geometry, first)?;
+    let furnished = Furnished {
+        objects: &placement.objects,
+        placed_by: Some(&placement.placed_by),
+        furnishings: &placement.furnishings,
+        furnishings_placed_by: Some(&placement.furnishings_placed_by),
+    };
+    check(lib, &plan, &furnished, &geometry, first)?;
     Ok(placement.objects)
 }
 

@@ -438,6 +438,17 @@ fn describe(scene: &Scene, semantic: Semantic, name: &str) -> (String, json::Val
         (Semantic::Floor { room }, _) => (name.into(), value!({ "kind": "floor", "room": room })),
         (Semantic::Ceiling { room }, _) => (name.into(), value!({ "kind": "ceiling", "room": room })),
         (Semantic::Decor { room }, _) => (name.into(), value!({ "kind": "decor", "room": room })),
+        (Semantic::Furnishing { id }, _) => {
+            let f = scene.furnishings.get(id as usize);
+            let room = f.map(|f| f.room);
+            (
+                name.into(),
+                value!({
+                    "kind": "furnishing", "id": id, "furnishing": f.map(|f| f.kind.name()),
+                    "room": room, "room_type": room_type(room),
+                }),
+            )
+        }
         (Semantic::Wall { wall }, _) => {
             let rooms = scene.walls.iter().find(|w| w.id == wall).map(|w| w.rooms);
             (name.into(), value!({ "kind": "wall", "wall": wall, "rooms": rooms }))

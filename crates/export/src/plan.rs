@@ -22,6 +22,8 @@ const WALL: Rgb<u8> = Rgb([40, 40, 40]);
 const WINDOW: Rgb<u8> = Rgb([120, 190, 235]);
 const GOLD: Rgb<u8> = Rgb([212, 175, 55]);
 const TEXT: Rgb<u8> = Rgb([20, 20, 20]);
+/// Furnishings (wardrobes, counters...): not detection targets, drawn in neutral grey.
+const FURNISHING: Rgb<u8> = Rgb([176, 176, 176]);
 
 /// Fill colour per class, in class-id order (a qualitative palette, Tableau 10).
 const CLASS_RGB: [[u8; 3]; 10] = [
@@ -63,11 +65,15 @@ use image::ImageEncoder as _;
 pub fn draw(scene: &Scene) -> RgbImage {
     let e = scene.envelope;
     let width = 2 * MARGIN_PX + (e.width_m * PX_PER_M).ceil() as u32 + LEGEND_PX;
-    let height = (2 * MARGIN_PX + (e.depth_m * PX_PER_M).ceil() as u32).max(MARGIN_PX + 14 * 13 + 60);
+    let height = (2 * MARGIN_PX + (e.depth_m * PX_PER_M).ceil() as u32).max(MARGIN_PX + 14 * 14 + 60);
     let mut canvas = Canvas { image: RgbImage::from_pixel(width, height, BACKGROUND), depth_m: e.depth_m };
 
     for room in &scene.rooms {
         canvas.fill_world(room.min, room.max, room_color(&room.room_type));
+    }
+    for f in &scene.furnishings {
+        canvas.fill_world(f.min.truncate(), f.max.truncate(), FURNISHING);
+        canvas.outline_world(f.min.truncate(), f.max.truncate(), darker(FURNISHING));
     }
     for object in scene.objects.iter().filter(|o| o.on.is_none()).chain(scene.objects.iter().filter(|o| o.on.is_some()))
     {
@@ -138,7 +144,7 @@ fn draw_legend(canvas: &mut Canvas, x: u32) {
                 Rgb([r, g, b])
             })
         })
-        .chain([("threshold", GOLD), ("window", WINDOW), ("wall", WALL)]);
+        .chain([("threshold", GOLD), ("furnishing", FURNISHING), ("window", WINDOW), ("wall", WALL)]);
     for (name, color) in entries {
         canvas.fill_px(x, y, 14, 10, color);
         canvas.outline_px(x, y, 14, 10, darker(color));
@@ -252,10 +258,10 @@ mod tests {
         let (x, y) = canvas.to_px(room.min + Vec2::splat(0.6));
         let fill = room_color(&room.room_type);
         let found = image.get_pixel(x as u32, y as u32);
-        let is_object = scene.objects.iter().any(|o| {
-            let p = room.min + Vec2::splat(0.6);
-            p.cmpge(o.min.truncate()).all() && p.cmple(o.max.truncate()).all()
-        });
+        let p = room.min + Vec2::splat(0.6);
+        let inside = |min: glam::Vec3, max: glam::Vec3| p.cmpge(min.truncate()).all() && p.cmple(max.truncate()).all();
+        let is_object = scene.objects.iter().any(|o| inside(o.min, o.max))
+            || scene.furnishings.iter().any(|f| inside(f.min, f.max));
         assert!(is_object || *found == fill, "expected the room fill at ({x}, {y}), got {found:?}");
     }
 }

@@ -17,6 +17,7 @@
 //!   Rooms/room_<id>                   Xform per room (customData room_id, room_type)
 //!     floor_<id>, ceiling_<id>, ...   structure that belongs to one room
 //!     Decor/<node>                    rugs, pictures
+//!     Furnishings/<kind>_<id>         wardrobes, counters...: unlabelled (not detection targets)
 //!     Objects/<class>_<id>            labelled object root, under the room it stands in
 //!       <node>                        Xform with the node's transform
 //!         mesh_<k>                    Mesh per material (points in the node frame)
@@ -438,6 +439,12 @@ impl UsdPlan {
                     room_children(room, None, &mut names, &mut prims)
                 }
                 Semantic::Decor { room } => room_children(room, Some("Decor"), &mut names, &mut prims),
+                Semantic::Furnishing { id } => match scene.furnishings.get(id as usize).map(|f| f.room) {
+                    Some(room) if room_paths.contains_key(&room) => {
+                        room_children(room, Some("Furnishings"), &mut names, &mut prims)
+                    }
+                    _ => once(&mut names, &mut prims, format!("{world}/Furnishings")),
+                },
                 Semantic::Wall { .. } | Semantic::Opening { .. } => structure.clone(),
             };
             // Under a labelled root the geometry gets a name of its own: a child named like its
@@ -686,6 +693,7 @@ mod tests {
                 yaw_deg: 0.0,
                 on: None,
             }],
+            furnishings: Vec::new(),
             lights: vec![
                 light(LightKind::Point, 10.0, LightUnit::Cd),
                 Light { id: 1, group: LightGroup::Day, ..light(LightKind::Rect, 300.0, LightUnit::Nit) },

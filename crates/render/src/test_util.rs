@@ -24,6 +24,7 @@ pub fn empty_scene() -> Scene {
         windows: Vec::new(),
         thresholds: Vec::new(),
         objects: Vec::new(),
+        furnishings: Vec::new(),
         lights: Vec::new(),
         geometry: Geometry::default(),
     }

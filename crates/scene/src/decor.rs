@@ -10,7 +10,7 @@ use rand::Rng;
 use crate::config::GeneratorConfig;
 use crate::floorplan::Floorplan;
 use crate::materials::MaterialCatalog;
-use crate::scene::{Geometry, Mesh, Node, Object, Primitive, Room, Semantic, Wall};
+use crate::scene::{Geometry, Mesh, Node, Primitive, Room, Semantic, Wall};
 
 /// Height of a picture's centre above the floor (eye level, gallery convention ~1.45 m).
 const PICTURE_CENTER_M: f32 = 1.45;
@@ -25,11 +25,12 @@ const RUG_WALL_MARGIN_M: f32 = 1.0;
 /// Number of texture variants drawn for decor surfaces.
 const VARIANTS: u32 = 8;
 
-/// Adds rugs and pictures to `geometry`.
+/// Adds rugs and pictures to `geometry`; pictures keep clear of `furniture`, the world boxes
+/// (min, max) of the placed objects and furnishings.
 pub fn build(
     config: &GeneratorConfig,
     plan: &Floorplan,
-    objects: &[Object],
+    furniture: &[(Vec3, Vec3)],
     materials: &mut MaterialCatalog,
     geometry: &mut Geometry,
 ) {
@@ -41,7 +42,7 @@ pub fn build(
         let walls: Vec<&Wall> = plan.walls.iter().filter(|w| w.rooms.contains(&Some(room.id))).collect();
         for wall in walls {
             if rng.random_bool(0.35) {
-                add_picture(config, room, wall, objects, &mut rng, materials, geometry);
+                add_picture(config, room, wall, furniture, &mut rng, materials, geometry);
             }
         }
     }
@@ -80,7 +81,7 @@ fn add_picture(
     config: &GeneratorConfig,
     room: &Room,
     wall: &Wall,
-    objects: &[Object],
+    furniture: &[(Vec3, Vec3)],
     rng: &mut impl Rng,
     materials: &mut MaterialCatalog,
     geometry: &mut Geometry,
@@ -96,10 +97,10 @@ fn add_picture(
     }
     let face = on_wall + inward * (config.wall_thickness_m * 0.5 + PICTURE_DEPTH_M * 0.5 + 0.001);
     let half_extent = (dir * size.x * 0.5).abs() + (inward * PICTURE_DEPTH_M * 0.5).abs();
-    let blocked = objects.iter().any(|o| {
-        o.max.z > PICTURE_CENTER_M - size.y * 0.5 - 0.1
-            && (face - half_extent - Vec2::splat(0.2)).cmplt(o.max.truncate()).all()
-            && (face + half_extent + Vec2::splat(0.2)).cmpgt(o.min.truncate()).all()
+    let blocked = furniture.iter().any(|(min, max)| {
+        max.z > PICTURE_CENTER_M - size.y * 0.5 - 0.1
+            && (face - half_extent - Vec2::splat(0.2)).cmplt(max.truncate()).all()
+            && (face + half_extent + Vec2::splat(0.2)).cmpgt(min.truncate()).all()
     });
     if blocked {
         return;

@@ -34,16 +34,19 @@ pub fn generate(config: &GeneratorConfig, library: &Library) -> Result<Scene, Ge
     let plan = floorplan::generate(config, &library.rooms)?;
     let thresholds = structure::build(config, &plan, &library.rooms, &mut materials, &mut geometry)?;
     let first_object_instance = thresholds.iter().map(|t| t.instance_id).max().unwrap_or(0) + 1;
-    let objects =
+    let (objects, furnishings) =
         placement::place(config, &plan, &thresholds, library, first_object_instance, &mut materials, &mut geometry)?;
-    decor::build(config, &plan, &objects, &mut materials, &mut geometry);
+    let furniture: Vec<_> =
+        objects.iter().map(|o| (o.min, o.max)).chain(furnishings.iter().map(|f| (f.min, f.max))).collect();
+    decor::build(config, &plan, &furniture, &mut materials, &mut geometry);
     let lights = lights::build(config, &plan, &objects);
     log::info!(
-        "house {}: {} rooms, {} doors, {} objects, {} mesh triangles in {:.0} ms",
+        "house {}: {} rooms, {} doors, {} objects, {} furnishings, {} mesh triangles in {:.0} ms",
         config.seed,
         plan.rooms.len(),
         plan.doors.len(),
         objects.len(),
+        furnishings.len(),
         geometry.meshes.iter().map(|m| m.primitives.iter().map(|p| p.indices.len() / 3).sum::<usize>()).sum::<usize>(),
         started.elapsed().as_secs_f64() * 1e3
     );
@@ -62,6 +65,7 @@ pub fn generate(config: &GeneratorConfig, library: &Library) -> Result<Scene, Ge
         windows: plan.windows,
         thresholds,
         objects,
+        furnishings,
         lights,
         geometry,
     })

@@ -3,7 +3,9 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::scene::{Door, Envelope, HouseRecord, Light, MANIFEST_SCHEMA, Object, Room, Scene, Threshold, Wall, Window};
+use crate::scene::{
+    Door, Envelope, Furnishing, HouseRecord, Light, MANIFEST_SCHEMA, Object, Room, Scene, Threshold, Wall, Window,
+};
 
 /// `scene.json`, field for field.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -23,6 +25,9 @@ pub struct Manifest {
     pub windows: Vec<Window>,
     pub thresholds: Vec<Threshold>,
     pub objects: Vec<Object>,
+    /// Non-target furniture; absent in manifests written before furnishings existed.
+    #[serde(default)]
+    pub furnishings: Vec<Furnishing>,
     pub lights: Vec<Light>,
 }
 
@@ -43,6 +48,7 @@ impl Manifest {
             windows: scene.windows.clone(),
             thresholds: scene.thresholds.clone(),
             objects: scene.objects.clone(),
+            furnishings: scene.furnishings.clone(),
             lights: scene.lights.clone(),
         }
     }

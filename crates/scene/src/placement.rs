@@ -40,7 +40,7 @@ use crate::floorplan::Floorplan;
 use crate::library::Library;
 use crate::library::furniture::{FurnitureVariant, Place, Rule};
 use crate::materials::MaterialCatalog;
-use crate::scene::{Geometry, Node, Object, ObjectClass, Room, Semantic, Threshold};
+use crate::scene::{Furnishing, Geometry, Kind, Node, Object, Room, Semantic, Threshold};
 use scene_gen_core::rng;
 
 /// Free width kept beside a door on each side, beyond its own width.
@@ -131,16 +131,19 @@ pub enum PlacedBy {
     Center,
 }
 
-/// The placed objects with the rule that placed each (same order).
+/// The placed objects and furnishings with the rule that placed each (same orders).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Placement {
     pub objects: Vec<Object>,
     pub placed_by: Vec<PlacedBy>,
+    pub furnishings: Vec<Furnishing>,
+    pub furnishings_placed_by: Vec<PlacedBy>,
     /// Requests that did not fit: (room id, class), in the order they were tried.
-    pub skipped: Vec<(u32, ObjectClass)>,
+    pub skipped: Vec<(u32, Kind)>,
 }
 
-/// Places furniture in every room; object instance ids start at `first_instance_id`.
+/// Places furniture in every room: the objects (instance ids from `first_instance_id`) and
+/// the furnishings.
 pub fn place(
     config: &GeneratorConfig,
     plan: &Floorplan,
@@ -149,8 +152,9 @@ pub fn place(
     first_instance_id: u32,
     materials: &mut MaterialCatalog,
     geometry: &mut Geometry,
-) -> Result<Vec<Object>, PlacementError> {
-    place_detailed(config, plan, thresholds, library, first_instance_id, materials, geometry).map(|p| p.objects)
+) -> Result<(Vec<Object>, Vec<Furnishing>), PlacementError> {
+    place_detailed(config, plan, thresholds, library, first_instance_id, materials, geometry)
+        .map(|p| (p.objects, p.furnishings))
 }
 
 /// [`place`], also saying which rule placed each object (for checks and debugging).
@@ -181,9 +185,12 @@ pub fn place_detailed(
 
         // Expand the requests, draw a variant per item, then place supports before what stands
         // on or beside them, biggest floor pieces first.
-        let mut items: Vec<(ObjectClass, &FurnitureVariant, bool)> = Vec::new();
+        let mut items: Vec<(Kind, &FurnitureVariant, bool)> = Vec::new();
         for request in &room_type.furniture {
             let Some(class) = library.furniture_class(request.class) else {
+                if matches!(request.class, Kind::Furnishing(_)) {
+                    continue; // a library without this furnishing: nothing to place
+                }
                 return Err(PlacementError::Library(format!("no furniture class '{}' in the library", request.class)));
             };
             let count = rng.random_range(request.min..=request.max);
@@ -193,19 +200,24 @@ pub fn place_detailed(
                 items.push((class.class, &class.variants[index], class.uniform_scale));
             }
         }
-        let stage = |v: &FurnitureVariant| match (v.rule.on.is_empty(), v.rule.beside.is_empty()) {
-            (false, _) => 2,
-            (true, false) => 1,
-            (true, true) => 0,
-        };
+        let stage =
+            |v: &FurnitureVariant| match (v.rule.on.is_empty(), v.rule.beside.is_empty() && v.rule.flank.is_empty()) {
+                (false, _) => 2,
+                (true, false) => 1,
+                (true, true) => 0,
+            };
         let nominal_area = |v: &FurnitureVariant| {
             let s = v.mesh.size();
             let h = v.size.height_m[1] / s.z;
             v.size.width_m.map_or(s.x * h, |w| w[1]) * v.size.depth_m.map_or(s.y * h, |d| d[1])
         };
+        // Within a stage objects go before furnishings, so furnishing a room fills the space
+        // its objects leave and never pushes an object out.
+        let furnishing = |k: Kind| matches!(k, Kind::Furnishing(_));
         items.sort_by(|a, b| {
             stage(a.1)
                 .cmp(&stage(b.1))
+                .then(furnishing(a.0).cmp(&furnishing(b.0)))
                 .then(nominal_area(b.1).partial_cmp(&nominal_area(a.1)).unwrap_or(std::cmp::Ordering::Equal))
         });
         for (class, mut variant, uniform) in items {
@@ -256,7 +268,7 @@ pub fn place_detailed(
 /// One placed object before geometry is made.
 #[derive(Clone)]
 struct Placed {
-    class: ObjectClass,
+    class: Kind,
     room: u32,
     /// The object's own shape (generated), or its library variant's shared mesh.
     variant: Rc<FurnitureVariant>,
@@ -543,12 +555,12 @@ fn place_one(
     rng: &mut ChaCha8Rng,
     ctx: &RoomContext,
     placed: &[Placed],
-    class: ObjectClass,
+    class: Kind,
     variant: Rc<FurnitureVariant>,
     scale: Vec3,
 ) -> Option<Placed> {
     let rule = variant.rule.clone();
-    let Rule { on, beside, place } = &rule;
+    let Rule { on, flank, beside, place } = &rule;
     let base = Placed {
         class,
         room: ctx.room,
@@ -593,6 +605,32 @@ fn place_one(
                 && !ctx.zones.iter().any(|z| c.max.z > z.above_m && z.rect.overlaps(&fp, 0.0))
                 && !room_objects.iter().any(|p| p.on == Some(s) && p.footprint().overlaps(&fp, 0.0))
             {
+                return Some(c);
+            }
+        }
+    }
+    // Flanking: beside an anchor standing against a wall, backs on the same wall, same yaw.
+    let flanked =
+        ids(&|p| p.on.is_none() && flank.contains(&p.class) && matches!(p.by, PlacedBy::Wall | PlacedBy::Corner));
+    if !flanked.is_empty() {
+        for _ in 0..TRIES {
+            let anchor = &placed[flanked[rng.random_range(0..flanked.len())]];
+            let a = anchor.footprint();
+            let yaw = anchor.yaw_deg;
+            let (lo, hi) = local_bounds(&base.variant, scale, yaw);
+            let gap = rng.random_range(0.03_f32..=0.15);
+            let first = rng.random_bool(0.5);
+            // The anchor's back line and the axis along its wall, by its yaw (back at -Y turned).
+            let t = match (yaw.round() as i32).rem_euclid(360) {
+                0 => Vec2::new(if first { a.min.x - gap - hi.x } else { a.max.x + gap - lo.x }, a.min.y - lo.y),
+                90 => Vec2::new(a.max.x - hi.x, if first { a.min.y - gap - hi.y } else { a.max.y + gap - lo.y }),
+                180 => Vec2::new(if first { a.min.x - gap - hi.x } else { a.max.x + gap - lo.x }, a.max.y - hi.y),
+                _ => Vec2::new(a.min.x - lo.x, if first { a.min.y - gap - hi.y } else { a.max.y + gap - lo.y }),
+            }
+            .extend(0.0);
+            let c =
+                Placed { yaw_deg: yaw, translation: t, min: lo + t, max: hi + t, by: PlacedBy::Beside, ..base.clone() };
+            if fits_on_floor(ctx, room_objects, &c) {
                 return Some(c);
             }
         }
@@ -701,7 +739,10 @@ fn build_geometry(
 ) -> Result<Placement, PlacementError> {
     let mut meshes: BTreeMap<(String, u32), usize> = BTreeMap::new();
     let mut out = Placement::default();
-    for (id, p) in placed.iter().enumerate() {
+    // Objects and furnishings are numbered apart; supports are always objects (the library
+    // refuses `on` a furnishing), so an object's `on` maps through its support's object id.
+    let mut object_id: Vec<Option<u32>> = Vec::with_capacity(placed.len());
+    for p in placed {
         let asset = format!("{}/{}", p.class, p.variant.name);
         let key = (asset.clone(), p.material_variant);
         let mesh = match meshes.get(&key) {
@@ -723,25 +764,51 @@ fn build_geometry(
                 geometry.meshes.len() - 1
             }
         };
-        let id = id as u32;
-        geometry.nodes.push(Node {
-            name: format!("{}_{id}", p.class),
-            mesh,
-            transform: p.transform(),
-            semantic: Semantic::Object { id },
-        });
-        out.objects.push(Object {
-            id,
-            class: p.class,
-            instance_id: first_instance_id + id,
-            room: p.room,
-            asset,
-            min: p.min,
-            max: p.max,
-            yaw_deg: p.yaw_deg,
-            on: p.on.map(|s| s as u32),
-        });
-        out.placed_by.push(p.by);
+        match p.class {
+            Kind::Object(class) => {
+                let id = out.objects.len() as u32;
+                object_id.push(Some(id));
+                let on = p.on.map(|s| object_id[s].expect("supports are objects, placed before what stands on them"));
+                geometry.nodes.push(Node {
+                    name: format!("{class}_{id}"),
+                    mesh,
+                    transform: p.transform(),
+                    semantic: Semantic::Object { id },
+                });
+                out.objects.push(Object {
+                    id,
+                    class,
+                    instance_id: first_instance_id + id,
+                    room: p.room,
+                    asset,
+                    min: p.min,
+                    max: p.max,
+                    yaw_deg: p.yaw_deg,
+                    on,
+                });
+                out.placed_by.push(p.by);
+            }
+            Kind::Furnishing(kind) => {
+                let id = out.furnishings.len() as u32;
+                object_id.push(None);
+                geometry.nodes.push(Node {
+                    name: format!("{kind}_{id}", kind = kind.name()),
+                    mesh,
+                    transform: p.transform(),
+                    semantic: Semantic::Furnishing { id },
+                });
+                out.furnishings.push(Furnishing {
+                    id,
+                    kind,
+                    room: p.room,
+                    asset,
+                    min: p.min,
+                    max: p.max,
+                    yaw_deg: p.yaw_deg,
+                });
+                out.furnishings_placed_by.push(p.by);
+            }
+        }
     }
     Ok(out)
 }

@@ -90,6 +90,94 @@ impl std::fmt::Display for ObjectClass {
     }
 }
 
+/// Furniture and fittings that make a house lived-in but are not detection targets: obstacles
+/// and occluders, in the manifest's `furnishings`, never in COCO categories or instance masks.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum FurnishingKind {
+    Wardrobe,
+    Bookshelf,
+    Nightstand,
+    Counter,
+    Fridge,
+    Stove,
+}
+
+impl FurnishingKind {
+    /// Every kind, in manifest order.
+    pub const ALL: [FurnishingKind; 6] = [
+        FurnishingKind::Wardrobe,
+        FurnishingKind::Bookshelf,
+        FurnishingKind::Nightstand,
+        FurnishingKind::Counter,
+        FurnishingKind::Fridge,
+        FurnishingKind::Stove,
+    ];
+
+    /// Lower-case name as written in manifests and TOML.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            FurnishingKind::Wardrobe => "wardrobe",
+            FurnishingKind::Bookshelf => "bookshelf",
+            FurnishingKind::Nightstand => "nightstand",
+            FurnishingKind::Counter => "counter",
+            FurnishingKind::Fridge => "fridge",
+            FurnishingKind::Stove => "stove",
+        }
+    }
+}
+
+/// What a furniture class of the library places: a detection target or a furnishing.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Kind {
+    Object(ObjectClass),
+    Furnishing(FurnishingKind),
+}
+
+impl Kind {
+    /// Every kind: the ten object classes, then the furnishings.
+    pub fn all() -> impl Iterator<Item = Kind> {
+        ObjectClass::ALL.into_iter().map(Kind::Object).chain(FurnishingKind::ALL.into_iter().map(Kind::Furnishing))
+    }
+
+    /// Lower-case name as written in manifests and TOML.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            Kind::Object(c) => c.name(),
+            Kind::Furnishing(k) => k.name(),
+        }
+    }
+
+    /// Parses a class or furnishing name.
+    #[must_use]
+    pub fn from_name(name: &str) -> Option<Kind> {
+        Kind::all().find(|k| k.name() == name)
+    }
+
+    /// The object class, for detection targets.
+    #[must_use]
+    pub fn object_class(self) -> Option<ObjectClass> {
+        match self {
+            Kind::Object(c) => Some(c),
+            Kind::Furnishing(_) => None,
+        }
+    }
+}
+
+impl From<ObjectClass> for Kind {
+    fn from(class: ObjectClass) -> Kind {
+        Kind::Object(class)
+    }
+}
+
+impl std::fmt::Display for Kind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
 /// The outer box the house fills.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Envelope {
@@ -288,6 +376,22 @@ pub struct Object {
     pub on: Option<u32>,
 }
 
+/// A wardrobe, a bookshelf, a kitchen counter...: furniture that is not a detection target.
+/// It stands on the floor, keeps every placement rule objects keep, and blocks the walk.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Furnishing {
+    pub id: u32,
+    pub kind: FurnishingKind,
+    pub room: u32,
+    /// Asset name, as for [`Object::asset`].
+    pub asset: String,
+    /// World-space axis-aligned bounding box of the placed mesh.
+    pub min: Vec3,
+    pub max: Vec3,
+    /// Rotation about +Z of the asset's front (+Y in asset space), degrees counter-clockwise.
+    pub yaw_deg: f32,
+}
+
 /// Which scenario a light belongs to; a render weights the groups separately.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -445,6 +549,8 @@ pub enum Semantic {
     Opening { kind: OpeningKind, id: u32 },
     /// Unlabelled decoration (a rug, a picture) in a room.
     Decor { room: u32 },
+    /// A [`Furnishing`] by id: not a detection target, so unlabelled.
+    Furnishing { id: u32 },
 }
 
 /// A mesh placed in the world.
@@ -472,6 +578,8 @@ pub struct Scene {
     pub windows: Vec<Window>,
     pub thresholds: Vec<Threshold>,
     pub objects: Vec<Object>,
+    /// Non-target furniture (wardrobes, counters, ...).
+    pub furnishings: Vec<Furnishing>,
     pub lights: Vec<Light>,
     pub geometry: Geometry,
 }

@@ -8,7 +8,7 @@
 //! 1. **Occupancy grid** ([`OccupancyGrid`]): cells of [`TrajectoryParams::cell_m`] (0.1 m)
 //!    over the house plus a margin. A cell is blocked when its centre is closer than the agent
 //!    radius to a wall (less its door openings; windows have a sill, so a wall is solid at
-//!    floor level under a window) or to the footprint of an object that reaches below
+//!    floor level under a window) or to the footprint of an object or furnishing that reaches below
 //!    [`OBSTACLE_MAX_BOTTOM_M`]. Outside the house only an apron of [`APRON_M`] around each
 //!    exterior door is free, so the agent can step out and back in but never walks around
 //!    the house.
@@ -197,8 +197,10 @@ fn clearance_with(scene: &Scene, walls: &[(Vec2, Vec2, f32)], p: Vec2) -> f32 {
     let o = scene
         .objects
         .iter()
-        .filter(|o| o.min.z < OBSTACLE_MAX_BOTTOM_M)
-        .map(|o| dist_to_rect(p, o.min.truncate(), o.max.truncate()))
+        .map(|o| (o.min, o.max))
+        .chain(scene.furnishings.iter().map(|f| (f.min, f.max)))
+        .filter(|(min, _)| min.z < OBSTACLE_MAX_BOTTOM_M)
+        .map(|(min, max)| dist_to_rect(p, min.truncate(), max.truncate()))
         .fold(f32::INFINITY, f32::min);
     w.min(o)
 }

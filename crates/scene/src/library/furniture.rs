@@ -4,7 +4,9 @@
 //! ```toml
 //! rooms = ["living_room", "office"]   # room types this class may be requested by
 //! place = "wall"                      # wall | corner | center: where it stands on the floor
-//! beside = ["table"]                  # optional: first try next to one of these classes
+//! beside = ["table"]                  # optional: first try next to one of these classes, facing it
+//! flank = ["bed"]                     # optional: first try beside one of these along its wall,
+//!                                     #   facing the same way (a nightstand by a bed)
 //! on = ["table", "bed"]               # optional: first try standing on one of these
 //! width_m = [1.5, 2.3]                # drawn size (x of the asset), inclusive range
 //! depth_m = [0.8, 1.0]                # drawn size (y of the asset)
@@ -23,8 +25,12 @@
 //! ```
 //!
 //! Placement tries, in order: standing `on` a support of a listed class in the same room,
-//! then `beside` an object of a listed class, then the `place` rule; an object that fits
-//! nowhere is skipped.
+//! then flanking (`flank`) and then `beside` an object of a listed class, then the `place`
+//! rule; an object that fits nowhere is skipped.
+//!
+//! Class folders are the ten object classes or the furnishings (`wardrobe`, `bookshelf`,
+//! `nightstand`, `counter`, `fridge`, `stove`: furniture that is not a detection target).
+//! Furnishings stand on the floor; `on` names object classes only.
 //!
 //! A generator variant builds every object's shape at the size drawn for it; an OBJ variant
 //! scales its one mesh to that size. Both may be mixed in one class.
@@ -48,7 +54,7 @@ use super::{LibraryError, LibraryFile, RoomType};
 use crate::assets::{self, AssetMesh, UpAxis};
 use crate::materials::MaterialCatalog;
 use crate::procedural::Generator;
-use crate::scene::ObjectClass;
+use crate::scene::Kind;
 
 /// Surface for OBJ materials that name no surface, unless the class TOML says otherwise.
 pub const DEFAULT_SURFACE: &str = "plastic";
@@ -68,8 +74,10 @@ pub enum Place {
 /// The placement rule of a variant: the preferences, then the floor fallback.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Rule {
-    pub on: Vec<ObjectClass>,
-    pub beside: Vec<ObjectClass>,
+    pub on: Vec<Kind>,
+    /// Beside one of these along the same wall, facing the same way (a nightstand by a bed).
+    pub flank: Vec<Kind>,
+    pub beside: Vec<Kind>,
     pub place: Place,
 }
 
@@ -105,7 +113,8 @@ pub struct FurnitureVariant {
 /// One furniture class and its variants.
 #[derive(Clone, Debug, PartialEq)]
 pub struct FurnitureClass {
-    pub class: ObjectClass,
+    /// An object class (a detection target) or a furnishing.
+    pub class: Kind,
     /// Room type names the class may be requested by.
     pub rooms: Vec<String>,
     pub uniform_scale: bool,
@@ -119,6 +128,8 @@ struct ClassFile {
     place: Option<Spanned<Place>>,
     #[serde(default)]
     beside: Option<Spanned<Vec<String>>>,
+    #[serde(default)]
+    flank: Option<Spanned<Vec<String>>>,
     #[serde(default)]
     on: Option<Spanned<Vec<String>>>,
     width_m: Option<Spanned<[f32; 2]>>,
@@ -170,8 +181,8 @@ fn parse_class(file: &LibraryFile, all: &[LibraryFile]) -> Result<FurnitureClass
     let at = |offset: usize, message: String| LibraryError::at_offset(&file.path, text, offset, message);
     let folder = file.path.parent().and_then(Path::file_name).map(|s| s.to_string_lossy().into_owned());
     let stem = file.path.file_stem().unwrap_or_default().to_string_lossy().into_owned();
-    let known = || ObjectClass::ALL.iter().map(|c| c.name()).collect::<Vec<_>>().join(", ");
-    let class = match folder.as_deref().and_then(ObjectClass::from_name) {
+    let known = || Kind::all().map(Kind::name).collect::<Vec<_>>().join(", ");
+    let class = match folder.as_deref().and_then(Kind::from_name) {
         Some(c) => c,
         None => {
             let name = folder.unwrap_or_default();
@@ -188,11 +199,11 @@ fn parse_class(file: &LibraryFile, all: &[LibraryFile]) -> Result<FurnitureClass
     let raw: ClassFile =
         toml::from_str(text).map_err(|e| at(e.span().map_or(0, |s| s.start), e.message().trim().to_string()))?;
 
-    let classes_of = |list: &Spanned<Vec<String>>| -> Result<Vec<ObjectClass>, LibraryError> {
+    let classes_of = |list: &Spanned<Vec<String>>| -> Result<Vec<Kind>, LibraryError> {
         list.get_ref()
             .iter()
             .map(|n| {
-                ObjectClass::from_name(n)
+                Kind::from_name(n)
                     .ok_or_else(|| at(list.span().start, format!("unknown class '{n}' (known: {})", known())))
             })
             .collect()
@@ -231,6 +242,7 @@ fn parse_class(file: &LibraryFile, all: &[LibraryFile]) -> Result<FurnitureClass
     }
     let class_on = raw.on.as_ref().map(classes_of).transpose()?.unwrap_or_default();
     let class_beside = raw.beside.as_ref().map(classes_of).transpose()?.unwrap_or_default();
+    let class_flank = raw.flank.as_ref().map(classes_of).transpose()?.unwrap_or_default();
     let class_size =
         [range(&raw.width_m, "width_m")?, range(&raw.depth_m, "depth_m")?, range(&raw.height_m, "height_m")?];
     if raw.variant.is_empty() {
@@ -293,9 +305,19 @@ fn parse_class(file: &LibraryFile, all: &[LibraryFile]) -> Result<FurnitureClass
         };
         let rule = Rule {
             on: v.on.as_ref().map(classes_of).transpose()?.unwrap_or_else(|| class_on.clone()),
+            flank: class_flank.clone(),
             beside: v.beside.as_ref().map(classes_of).transpose()?.unwrap_or_else(|| class_beside.clone()),
             place,
         };
+        // Furnishings stand on the floor, and nothing stands on them: an object's `on` always
+        // names an object, so the manifest's `on` ids stay object ids.
+        let on_furnishing = rule.on.iter().any(|k| matches!(k, Kind::Furnishing(_)));
+        if on_furnishing || (matches!(class, Kind::Furnishing(_)) && !rule.on.is_empty()) {
+            return Err(at(
+                offset,
+                format!("variant '{name}': `on` may name object classes only, and furnishings stand on the floor"),
+            ));
+        }
         let size = SizeRange { width_m, depth_m, height_m };
         let variant = match source {
             Source::Obj(span) => {
@@ -367,8 +389,8 @@ struct RoomRequest {
 }
 
 /// Checks that every `[[furniture]]` request of every room type names a class the furniture
-/// library has and whose `rooms` list includes that room type. Errors name the room file and
-/// the line of the request.
+/// library has (furnishings may be absent: they are then not placed) and whose `rooms` list
+/// includes that room type. Errors name the room file and the line of the request.
 pub fn check_room_requests(
     room_files: &[LibraryFile],
     room_types: &[RoomType],
@@ -385,8 +407,12 @@ pub fn check_room_requests(
         for request in raw.furniture {
             let name = request.class.get_ref();
             let at = |message: String| LibraryError::at_offset(&file.path, text, request.class.span().start, message);
-            let Some(class) = ObjectClass::from_name(name) else { continue };
+            let Some(class) = Kind::from_name(name) else { continue };
             let Some(entry) = furniture.iter().find(|f| f.class == class) else {
+                // Furnishings are optional: a library without them furnishes target objects only.
+                if matches!(class, Kind::Furnishing(_)) {
+                    continue;
+                }
                 return Err(at(format!("class '{name}' is not in the furniture library")));
             };
             if !entry.rooms.contains(&stem) {
@@ -421,6 +447,7 @@ pub(crate) fn weighted_index(rng: &mut impl rand::Rng, weights: impl Iterator<It
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::scene::ObjectClass;
 
     fn lib(files: &[(&str, &str)]) -> Vec<LibraryFile> {
         files.iter().map(|(p, t)| LibraryFile { path: (*p).into(), bytes: t.as_bytes().to_vec() }).collect()
@@ -434,7 +461,7 @@ mod tests {
     fn good_class_loads() {
         let classes = parse_furniture(&lib(&[("f/bed/bed.toml", GOOD), ("f/bed/a.obj", BOX_OBJ)])).unwrap();
         assert_eq!(classes.len(), 1);
-        assert_eq!(classes[0].class, ObjectClass::Bed);
+        assert_eq!(classes[0].class, Kind::Object(ObjectClass::Bed));
         assert_eq!(classes[0].variants[0].rule.place, Place::Wall);
         assert_eq!(classes[0].variants[0].mesh.parts[0].surface, DEFAULT_SURFACE);
     }

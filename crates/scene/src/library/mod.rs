@@ -177,7 +177,8 @@ impl Library {
 
     /// The furniture class entry for `class`, if the library has one.
     #[must_use]
-    pub fn furniture_class(&self, class: crate::scene::ObjectClass) -> Option<&FurnitureClass> {
+    pub fn furniture_class(&self, class: impl Into<crate::scene::Kind>) -> Option<&FurnitureClass> {
+        let class = class.into();
         self.furniture.iter().find(|f| f.class == class)
     }
 }

@@ -15,7 +15,7 @@
 //! prefer_area = "smallest"     # required rooms take the smallest ("largest") free room
 //! entrance = false             # no front door into this type (unless no other room can have one)
 //!
-//! [[furniture]]                # objects this room type holds
+//! [[furniture]]                # objects (and furnishings: wardrobe, counter, ...) it holds
 //! class = "bed"
 //! count = [1, 1]               # inclusive range, drawn per room
 //! ```
@@ -27,7 +27,7 @@ use toml::Spanned;
 
 use super::{LibraryError, LibraryFile};
 use crate::materials::MaterialCatalog;
-use crate::scene::ObjectClass;
+use crate::scene::Kind;
 
 /// One room type.
 #[derive(Clone, Debug, PartialEq)]
@@ -94,7 +94,8 @@ impl Default for PlanRules {
 /// "This room type holds between `min` and `max` objects of `class`."
 #[derive(Clone, Debug, PartialEq)]
 pub struct FurnitureRequest {
-    pub class: ObjectClass,
+    /// An object class or a furnishing.
+    pub class: Kind,
     pub min: u32,
     pub max: u32,
 }
@@ -161,8 +162,8 @@ fn parse_room_type(file: &LibraryFile) -> Result<RoomType, LibraryError> {
     let rules = parse_rules(&raw, &at)?;
     let mut furniture = Vec::new();
     for entry in raw.furniture {
-        let class = ObjectClass::from_name(entry.class.get_ref()).ok_or_else(|| {
-            let known: Vec<_> = ObjectClass::ALL.iter().map(|c| c.name()).collect();
+        let class = Kind::from_name(entry.class.get_ref()).ok_or_else(|| {
+            let known: Vec<_> = Kind::all().map(Kind::name).collect();
             at(
                 entry.class.span().start,
                 format!("unknown class '{}' (known: {})", entry.class.get_ref(), known.join(", ")),

@@ -22,6 +22,7 @@ pub mod builder;
 
 mod bath;
 mod beds;
+mod furnishings;
 mod lamps;
 mod plants;
 mod screens;
@@ -35,7 +36,7 @@ use rand_chacha::ChaCha8Rng;
 use rand_chacha::rand_core::SeedableRng;
 
 use crate::assets::AssetMesh;
-use crate::scene::ObjectClass;
+use crate::scene::{FurnishingKind, Kind, ObjectClass};
 use builder::MeshBuilder;
 
 /// Builds a shape of roughly `size` (width x, depth y, height z, metres) from `rng`.
@@ -46,8 +47,8 @@ type Build = fn(Vec3, &mut ChaCha8Rng) -> MeshBuilder;
 pub struct Generator {
     /// The name class files use (`generator = "sofa"`).
     pub name: &'static str,
-    /// The class the shapes belong to.
-    pub class: ObjectClass,
+    /// The class (or furnishing) the shapes belong to.
+    pub class: Kind,
     build: Build,
 }
 
@@ -65,34 +66,48 @@ impl PartialEq for Generator {
 
 /// Every generator, by class.
 pub const GENERATORS: &[Generator] = &[
-    Generator { name: "sofa", class: ObjectClass::Sofa, build: seating::sofa },
-    Generator { name: "sofa_corner", class: ObjectClass::Sofa, build: seating::sofa_corner },
-    Generator { name: "bed", class: ObjectClass::Bed, build: beds::bed },
-    Generator { name: "table_dining", class: ObjectClass::Table, build: tables::dining },
-    Generator { name: "table_round", class: ObjectClass::Table, build: tables::round },
-    Generator { name: "table_desk", class: ObjectClass::Table, build: tables::desk },
-    Generator { name: "table_coffee", class: ObjectClass::Table, build: tables::coffee },
-    Generator { name: "chair_dining", class: ObjectClass::Chair, build: seating::dining_chair },
-    Generator { name: "chair_stool", class: ObjectClass::Chair, build: seating::stool },
-    Generator { name: "chair_arm", class: ObjectClass::Chair, build: seating::armchair },
-    Generator { name: "bathtub_built_in", class: ObjectClass::Bathtub, build: bath::built_in_tub },
-    Generator { name: "bathtub_freestanding", class: ObjectClass::Bathtub, build: bath::freestanding_tub },
-    Generator { name: "basin_pedestal", class: ObjectClass::Basin, build: bath::pedestal_basin },
-    Generator { name: "basin_vanity", class: ObjectClass::Basin, build: bath::vanity_basin },
-    Generator { name: "computer_tv", class: ObjectClass::Computer, build: screens::tv },
-    Generator { name: "computer_monitor", class: ObjectClass::Computer, build: screens::monitor },
-    Generator { name: "computer_laptop", class: ObjectClass::Computer, build: screens::laptop },
-    Generator { name: "plant_bush", class: ObjectClass::Plant, build: plants::bush },
-    Generator { name: "plant_tall", class: ObjectClass::Plant, build: plants::tall },
-    Generator { name: "plant_conifer", class: ObjectClass::Plant, build: plants::conifer },
-    Generator { name: "lamp_floor", class: ObjectClass::Lamp, build: lamps::floor },
-    Generator { name: "lamp_table", class: ObjectClass::Lamp, build: lamps::table },
-    Generator { name: "lamp_desk", class: ObjectClass::Lamp, build: lamps::desk },
-    Generator { name: "toy_ball", class: ObjectClass::Toy, build: toys::ball },
-    Generator { name: "toy_blocks", class: ObjectClass::Toy, build: toys::blocks },
-    Generator { name: "toy_teddy", class: ObjectClass::Toy, build: toys::teddy },
-    Generator { name: "toy_car", class: ObjectClass::Toy, build: toys::car },
-    Generator { name: "toy_stacker", class: ObjectClass::Toy, build: toys::stacker },
+    Generator { name: "sofa", class: Kind::Object(ObjectClass::Sofa), build: seating::sofa },
+    Generator { name: "sofa_corner", class: Kind::Object(ObjectClass::Sofa), build: seating::sofa_corner },
+    Generator { name: "bed", class: Kind::Object(ObjectClass::Bed), build: beds::bed },
+    Generator { name: "table_dining", class: Kind::Object(ObjectClass::Table), build: tables::dining },
+    Generator { name: "table_round", class: Kind::Object(ObjectClass::Table), build: tables::round },
+    Generator { name: "table_desk", class: Kind::Object(ObjectClass::Table), build: tables::desk },
+    Generator { name: "table_coffee", class: Kind::Object(ObjectClass::Table), build: tables::coffee },
+    Generator { name: "chair_dining", class: Kind::Object(ObjectClass::Chair), build: seating::dining_chair },
+    Generator { name: "chair_stool", class: Kind::Object(ObjectClass::Chair), build: seating::stool },
+    Generator { name: "chair_arm", class: Kind::Object(ObjectClass::Chair), build: seating::armchair },
+    Generator { name: "bathtub_built_in", class: Kind::Object(ObjectClass::Bathtub), build: bath::built_in_tub },
+    Generator {
+        name: "bathtub_freestanding",
+        class: Kind::Object(ObjectClass::Bathtub),
+        build: bath::freestanding_tub,
+    },
+    Generator { name: "basin_pedestal", class: Kind::Object(ObjectClass::Basin), build: bath::pedestal_basin },
+    Generator { name: "basin_vanity", class: Kind::Object(ObjectClass::Basin), build: bath::vanity_basin },
+    Generator { name: "computer_tv", class: Kind::Object(ObjectClass::Computer), build: screens::tv },
+    Generator { name: "computer_monitor", class: Kind::Object(ObjectClass::Computer), build: screens::monitor },
+    Generator { name: "computer_laptop", class: Kind::Object(ObjectClass::Computer), build: screens::laptop },
+    Generator { name: "plant_bush", class: Kind::Object(ObjectClass::Plant), build: plants::bush },
+    Generator { name: "plant_tall", class: Kind::Object(ObjectClass::Plant), build: plants::tall },
+    Generator { name: "plant_conifer", class: Kind::Object(ObjectClass::Plant), build: plants::conifer },
+    Generator { name: "lamp_floor", class: Kind::Object(ObjectClass::Lamp), build: lamps::floor },
+    Generator { name: "lamp_table", class: Kind::Object(ObjectClass::Lamp), build: lamps::table },
+    Generator { name: "lamp_desk", class: Kind::Object(ObjectClass::Lamp), build: lamps::desk },
+    Generator { name: "toy_ball", class: Kind::Object(ObjectClass::Toy), build: toys::ball },
+    Generator { name: "toy_blocks", class: Kind::Object(ObjectClass::Toy), build: toys::blocks },
+    Generator { name: "toy_teddy", class: Kind::Object(ObjectClass::Toy), build: toys::teddy },
+    Generator { name: "toy_car", class: Kind::Object(ObjectClass::Toy), build: toys::car },
+    Generator { name: "toy_stacker", class: Kind::Object(ObjectClass::Toy), build: toys::stacker },
+    Generator { name: "wardrobe", class: Kind::Furnishing(FurnishingKind::Wardrobe), build: furnishings::wardrobe },
+    Generator { name: "bookshelf", class: Kind::Furnishing(FurnishingKind::Bookshelf), build: furnishings::bookshelf },
+    Generator {
+        name: "nightstand",
+        class: Kind::Furnishing(FurnishingKind::Nightstand),
+        build: furnishings::nightstand,
+    },
+    Generator { name: "counter", class: Kind::Furnishing(FurnishingKind::Counter), build: furnishings::counter },
+    Generator { name: "fridge", class: Kind::Furnishing(FurnishingKind::Fridge), build: furnishings::fridge },
+    Generator { name: "stove", class: Kind::Furnishing(FurnishingKind::Stove), build: furnishings::stove },
 ];
 
 impl Generator {
@@ -166,7 +181,7 @@ mod tests {
 
     #[test]
     fn every_class_has_a_generator_and_names_are_unique() {
-        for class in ObjectClass::ALL {
+        for class in Kind::all() {
             assert!(GENERATORS.iter().any(|g| g.class == class), "no generator for {class}");
         }
         for (i, g) in GENERATORS.iter().enumerate() {
