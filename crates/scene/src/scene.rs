@@ -101,17 +101,19 @@ pub enum FurnishingKind {
     Counter,
     Fridge,
     Stove,
+    Toilet,
 }
 
 impl FurnishingKind {
     /// Every kind, in manifest order.
-    pub const ALL: [FurnishingKind; 6] = [
+    pub const ALL: [FurnishingKind; 7] = [
         FurnishingKind::Wardrobe,
         FurnishingKind::Bookshelf,
         FurnishingKind::Nightstand,
         FurnishingKind::Counter,
         FurnishingKind::Fridge,
         FurnishingKind::Stove,
+        FurnishingKind::Toilet,
     ];
 
     /// Lower-case name as written in manifests and TOML.
@@ -124,6 +126,7 @@ impl FurnishingKind {
             FurnishingKind::Counter => "counter",
             FurnishingKind::Fridge => "fridge",
             FurnishingKind::Stove => "stove",
+            FurnishingKind::Toilet => "toilet",
         }
     }
 }

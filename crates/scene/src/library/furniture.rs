@@ -29,7 +29,7 @@
 //! rule; an object that fits nowhere is skipped.
 //!
 //! Class folders are the ten object classes or the furnishings (`wardrobe`, `bookshelf`,
-//! `nightstand`, `counter`, `fridge`, `stove`: furniture that is not a detection target).
+//! `nightstand`, `counter`, `fridge`, `stove`, `toilet`: furniture that is not a detection target).
 //! Furnishings stand on the floor; `on` names object classes only.
 //!
 //! A generator variant builds every object's shape at the size drawn for it; an OBJ variant

@@ -179,3 +179,50 @@ pub(super) fn vanity_basin(s: Vec3, rng: &mut ChaCha8Rng) -> MeshBuilder {
     }
     b
 }
+
+/// A toilet (a furnishing): a bowl on a pedestal, a seat and lid, a cistern against the wall
+/// or a wall-hung pan with its frame boxed in.
+pub(super) fn toilet(s: Vec3, rng: &mut ChaCha8Rng) -> MeshBuilder {
+    let mut b = MeshBuilder::default();
+    let (hx, hy) = (s.x * 0.5, s.y * 0.5);
+    let seat_z = rng.between(0.38, 0.44).min(s.z * 0.6);
+    let cistern_d = rng.between(0.14, 0.2);
+    let bowl_centre = Vec2::new(0.0, -hy + cistern_d + (s.y - cistern_d) * 0.5);
+    let bowl_half = Vec2::new(hx * 0.9, (s.y - cistern_d) * 0.5);
+    let wall_hung = rng.chance(0.35);
+    if wall_hung {
+        // The pan hangs from a boxed-in frame that carries the cistern.
+        b.cuboid("tile_wall", Vec3::new(-hx, -hy, 0.0), Vec3::new(hx, -hy + cistern_d, s.z));
+        b.cuboid(
+            "metal",
+            Vec3::new(-0.08, -hy + cistern_d, s.z - 0.3),
+            Vec3::new(0.08, -hy + cistern_d + 0.01, s.z - 0.2),
+        );
+        let z0 = seat_z - 0.32;
+        b.shell("ceramic", bowl_centre, z0, bowl_half, [2.5, 2.5], seat_z - 0.03 - z0, 0.03, 0.05, 24);
+    } else {
+        let foot = bowl_half * Vec2::new(0.5, 0.6);
+        b.shell("ceramic", bowl_centre, 0.0, foot, [2.5, 2.5], seat_z * 0.5, 0.02, 0.02, 20);
+        let z0 = seat_z * 0.45;
+        b.shell("ceramic", bowl_centre, z0, bowl_half, [2.5, 2.5], seat_z - 0.03 - z0, 0.03, 0.05, 24);
+        let top = s.z;
+        b.cuboid("ceramic", Vec3::new(-hx * 0.85, -hy, z0), Vec3::new(hx * 0.85, -hy + cistern_d, top - 0.02));
+        b.cuboid("ceramic", Vec3::new(-hx * 0.9, -hy, top - 0.02), Vec3::new(hx * 0.9, -hy + cistern_d + 0.01, top));
+        b.cylinder("metal", Vec3::new(hx * 0.5, -hy + cistern_d * 0.5, top), 0.015, 0.01, 8);
+    }
+    // Seat ring and a lid, up against the cistern or down on the seat.
+    let seat = rng.pick(&["plastic", "plastic", "wood"]);
+    b.shell(seat, bowl_centre, seat_z - 0.03, bowl_half * 0.98, [2.5, 2.5], 0.025, 0.07, 0.005, 24);
+    if rng.chance(0.5) {
+        b.shell(seat, bowl_centre, seat_z - 0.005, bowl_half * 0.98, [2.5, 2.5], 0.02, 0.03, 0.017, 24);
+    } else {
+        let lid_h = (bowl_half.y * 2.0).min(s.z - seat_z);
+        let y = -hy + cistern_d + 0.02;
+        b.cuboid(
+            seat,
+            Vec3::new(-bowl_half.x * 0.9, y, seat_z),
+            Vec3::new(bowl_half.x * 0.9, y + 0.02, seat_z + lid_h),
+        );
+    }
+    b
+}

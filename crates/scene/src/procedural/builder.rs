@@ -382,3 +382,32 @@ impl MeshBuilder {
         AssetMesh { parts, min, max }
     }
 }
+
+impl MeshBuilder {
+    /// A flat-shaded octahedron with half extents `half` in the rigid frame `frame` (a leaf
+    /// blade: pointed at both ends along z). Every face has its own vertices and its normal,
+    /// so faces and normals agree under any scaling.
+    pub fn diamond_in(&mut self, surface: &'static str, frame: Mat4, half: Vec3) {
+        let axes = [Vec3::X * half.x, Vec3::Y * half.y, Vec3::Z * half.z];
+        let part = self.part(surface);
+        for sx in [-1.0_f32, 1.0] {
+            for sy in [-1.0_f32, 1.0] {
+                for sz in [-1.0_f32, 1.0] {
+                    let (a, b, c) = (axes[0] * sx, axes[1] * sy, axes[2] * sz);
+                    // Counter-clockwise seen from outside: the octant's sign parity decides.
+                    let (b, c) = if sx * sy * sz > 0.0 { (b, c) } else { (c, b) };
+                    let (pa, pb, pc) =
+                        (frame.transform_point3(a), frame.transform_point3(b), frame.transform_point3(c));
+                    let n = (pb - pa).cross(pc - pa).normalize_or_zero();
+                    let base = part.positions.len() as u32;
+                    for p in [pa, pb, pc] {
+                        part.positions.push(p);
+                        part.normals.push(n);
+                        part.uvs.push(Vec2::new(p.x + p.y, p.z));
+                    }
+                    part.triangles.push([base, base + 1, base + 2]);
+                }
+            }
+        }
+    }
+}

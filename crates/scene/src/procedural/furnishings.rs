@@ -8,6 +8,84 @@ use rand_chacha::ChaCha8Rng;
 use super::Draw;
 use super::builder::MeshBuilder;
 
+/// Small things standing on a top at height `z` inside the rectangle `lo..hi` (cups, bowls,
+/// bottles, a stack of books, a kettle): the clutter of a lived-in surface.
+/// Nothing stands between `keep_clear.0` and `keep_clear.1` along x (a sink).
+fn clutter(b: &mut MeshBuilder, lo: Vec2, hi: Vec2, z: f32, count: u32, keep_clear: (f32, f32), rng: &mut ChaCha8Rng) {
+    for _ in 0..count {
+        let c = Vec2::new(rng.between(lo.x + 0.08, hi.x - 0.08), rng.between(lo.y + 0.08, hi.y - 0.08));
+        if c.x > keep_clear.0 - 0.12 && c.x < keep_clear.1 + 0.12 {
+            continue;
+        }
+        match rng.count(0, 4) {
+            0 => b.frustum(
+                "ceramic",
+                glam::Mat4::from_translation(c.extend(z)),
+                0.035,
+                0.045,
+                0.1,
+                10,
+                Some("ceramic"),
+                None,
+            ),
+            1 => b.frustum(
+                "ceramic",
+                glam::Mat4::from_translation(c.extend(z)),
+                0.05,
+                0.1,
+                0.07,
+                12,
+                Some("ceramic"),
+                None,
+            ),
+            2 => {
+                let r = rng.between(0.03, 0.045);
+                let h = rng.between(0.2, 0.3);
+                let glass = rng.pick(&["plastic", "ceramic", "metal"]);
+                b.cylinder(glass, c.extend(z), r, h * 0.75, 10);
+                b.frustum(
+                    glass,
+                    glam::Mat4::from_translation(c.extend(z + h * 0.75)),
+                    r,
+                    r * 0.35,
+                    h * 0.25,
+                    10,
+                    None,
+                    Some(glass),
+                );
+            }
+            3 => {
+                let mut top = z;
+                for _ in 0..rng.count(1, 4) {
+                    let size = Vec3::new(rng.between(0.14, 0.22), rng.between(0.1, 0.16), rng.between(0.02, 0.04));
+                    let frame = glam::Mat4::from_translation(c.extend(top + size.z * 0.5))
+                        * glam::Mat4::from_rotation_z(rng.between(-0.3, 0.3));
+                    b.box_in(rng.pick(&["fabric", "plastic", "leather", "picture"]), frame, size);
+                    top += size.z;
+                }
+            }
+            _ => {
+                let r = rng.between(0.07, 0.09);
+                b.frustum(
+                    "metal",
+                    glam::Mat4::from_translation(c.extend(z)),
+                    r,
+                    r * 0.8,
+                    0.18,
+                    12,
+                    Some("metal"),
+                    Some("plastic"),
+                );
+                b.cuboid(
+                    "plastic",
+                    c.extend(z + 0.05) + Vec3::new(r * 0.9, -0.01, 0.0),
+                    c.extend(z + 0.15) + Vec3::new(r * 0.9 + 0.03, 0.01, 0.0),
+                );
+            }
+        }
+    }
+}
+
 /// A handle on a front at `centre` (on the front face), vertical or horizontal.
 fn handle(b: &mut MeshBuilder, centre: Vec3, vertical: bool) {
     let half = if vertical { Vec3::new(0.008, 0.0, 0.07) } else { Vec3::new(0.07, 0.0, 0.008) };
@@ -111,6 +189,8 @@ pub(super) fn nightstand(s: Vec3, rng: &mut ChaCha8Rng) -> MeshBuilder {
         b.cuboid(surface, Vec3::new(-hx + 0.015, hy - 0.02, z1 - h + 0.005), Vec3::new(hx - 0.015, hy - 0.002, z1));
         handle(&mut b, Vec3::new(0.0, hy - 0.002, z1 - h * 0.5), false);
     }
+    let things = rng.count(0, 2);
+    clutter(&mut b, Vec2::new(-hx, -hy), Vec2::new(hx, hy), s.z, things, (f32::MAX, f32::MAX), rng);
     b
 }
 
@@ -150,10 +230,12 @@ pub(super) fn counter(s: Vec3, rng: &mut ChaCha8Rng) -> MeshBuilder {
             doors(&mut b, body, x0, x0 + w, plinth, under, hy - 0.03, 1);
         }
     }
+    let mut sink_span = (f32::MAX, f32::MAX);
     if sink {
         // A sink: the worktop and the carcass's top rails around a bowl, a tap behind it.
         let cx = rng.between(-hx + 0.35, hx - 0.35);
         let (bw, bd) = (rng.between(0.35, 0.5).min(s.x * 0.4), (s.y - 0.2).min(0.4));
+        sink_span = (cx - bw * 0.5, cx + bw * 0.5);
         let (y0, y1) = (-bd * 0.5 + 0.03, bd * 0.5 + 0.03);
         let (x0, x1) = (cx - bw * 0.5, cx + bw * 0.5);
         for (material, z0, z1, back) in [(body, carcass_top, under, hy - 0.03), (top, under, s.z, hy)] {
@@ -173,6 +255,8 @@ pub(super) fn counter(s: Vec3, rng: &mut ChaCha8Rng) -> MeshBuilder {
     } else {
         b.cuboid(top, Vec3::new(-hx, -hy, under), Vec3::new(hx, hy, s.z));
     }
+    let things = rng.count(0, 3);
+    clutter(&mut b, Vec2::new(-hx, -hy), Vec2::new(hx, -hy + s.y * 0.5), s.z, things, sink_span, rng);
     b
 }
 

@@ -108,6 +108,7 @@ pub const GENERATORS: &[Generator] = &[
     Generator { name: "counter", class: Kind::Furnishing(FurnishingKind::Counter), build: furnishings::counter },
     Generator { name: "fridge", class: Kind::Furnishing(FurnishingKind::Fridge), build: furnishings::fridge },
     Generator { name: "stove", class: Kind::Furnishing(FurnishingKind::Stove), build: furnishings::stove },
+    Generator { name: "toilet", class: Kind::Furnishing(FurnishingKind::Toilet), build: bath::toilet },
 ];
 
 impl Generator {
@@ -194,6 +195,9 @@ mod tests {
         for g in GENERATORS {
             let size = Vec3::new(0.9, 0.7, 0.8);
             for uniform in [false, true] {
+                for seed in 3..40 {
+                    check_mesh(g, &g.generate(size, uniform, seed));
+                }
                 let a = g.generate(size, uniform, 1);
                 let b = g.generate(size, uniform, 2);
                 let got = a.size();
@@ -204,19 +208,31 @@ mod tests {
                 assert!(a.min.z.abs() < 1e-5 && (a.min.x + a.max.x).abs() < 1e-4, "{}: not centred", g.name);
                 assert_ne!(a, b, "{}: seeds 1 and 2 give one shape", g.name);
                 assert_eq!(a, g.generate(size, uniform, 1), "{}: not deterministic", g.name);
-                for part in &a.parts {
-                    assert!(
-                        crate::materials::MaterialCatalog::is_surface(&part.surface),
-                        "{}: {}",
-                        g.name,
-                        part.surface
-                    );
-                    assert_eq!(part.positions.len(), part.normals.len());
-                    assert_eq!(part.positions.len(), part.uvs.len());
-                    assert!(part.indices.iter().all(|&i| (i as usize) < part.positions.len()));
-                    assert!(part.normals.iter().all(|n| (n.length() - 1.0).abs() < 1e-3), "{}: normal", g.name);
-                    assert!(part.positions.iter().all(|p| p.is_finite()), "{}: position", g.name);
-                }
+                check_mesh(g, &a);
+            }
+        }
+    }
+
+    /// Surfaces, attribute counts, unit normals, finite positions, and every triangle
+    /// counter-clockwise seen from outside (its face agrees with its first vertex's normal).
+    fn check_mesh(g: &Generator, mesh: &AssetMesh) {
+        for part in &mesh.parts {
+            assert!(crate::materials::MaterialCatalog::is_surface(&part.surface), "{}: {}", g.name, part.surface);
+            assert_eq!(part.positions.len(), part.normals.len());
+            assert_eq!(part.positions.len(), part.uvs.len());
+            assert!(part.indices.iter().all(|&i| (i as usize) < part.positions.len()));
+            assert!(part.normals.iter().all(|n| (n.length() - 1.0).abs() < 1e-3), "{}: normal", g.name);
+            assert!(part.positions.iter().all(|p| p.is_finite()), "{}: position", g.name);
+            for t in part.indices.chunks_exact(3) {
+                let [a, b, c] = [0, 1, 2].map(|k| part.positions[t[k] as usize]);
+                let face = (b - a).cross(c - a);
+                let n = part.normals[t[0] as usize];
+                assert!(
+                    face.dot(n) > 0.0,
+                    "{} {}: triangle {a} {b} {c}, face {face}, normal {n}",
+                    g.name,
+                    part.surface
+                );
             }
         }
     }

@@ -59,7 +59,7 @@ fn leaf(b: &mut MeshBuilder, base: Vec3, yaw: f32, tilt: f32, length: f32, width
         * Mat4::from_rotation_z(yaw)
         * Mat4::from_rotation_x(-tilt)
         * Mat4::from_translation(Vec3::Z * (length * 0.5));
-    b.ellipsoid_in("leaf", frame, Vec3::new(width * 0.5, width * 0.08, length * 0.5), 6, 4);
+    b.diamond_in("leaf", frame, Vec3::new(width * 0.5, width * 0.06, length * 0.5));
 }
 
 /// A low plant: a bushy crown of clusters, or a rosette of long leaves from the soil.
