@@ -764,17 +764,12 @@ fn build_geometry(
                 geometry.meshes.len() - 1
             }
         };
-        match p.class {
+        // Node name and semantic by kind; the node itself is the same for both.
+        let (id, semantic) = match p.class {
             Kind::Object(class) => {
                 let id = out.objects.len() as u32;
                 object_id.push(Some(id));
                 let on = p.on.map(|s| object_id[s].expect("supports are objects, placed before what stands on them"));
-                geometry.nodes.push(Node {
-                    name: format!("{class}_{id}"),
-                    mesh,
-                    transform: p.transform(),
-                    semantic: Semantic::Object { id },
-                });
                 out.objects.push(Object {
                     id,
                     class,
@@ -787,16 +782,11 @@ fn build_geometry(
                     on,
                 });
                 out.placed_by.push(p.by);
+                (id, Semantic::Object { id })
             }
             Kind::Furnishing(kind) => {
                 let id = out.furnishings.len() as u32;
                 object_id.push(None);
-                geometry.nodes.push(Node {
-                    name: format!("{kind}_{id}", kind = kind.name()),
-                    mesh,
-                    transform: p.transform(),
-                    semantic: Semantic::Furnishing { id },
-                });
                 out.furnishings.push(Furnishing {
                     id,
                     kind,
@@ -807,8 +797,10 @@ fn build_geometry(
                     yaw_deg: p.yaw_deg,
                 });
                 out.furnishings_placed_by.push(p.by);
+                (id, Semantic::Furnishing { id })
             }
-        }
+        };
+        geometry.nodes.push(Node { name: format!("{}_{id}", p.class), mesh, transform: p.transform(), semantic });
     }
     Ok(out)
 }

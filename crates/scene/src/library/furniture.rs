@@ -319,7 +319,8 @@ fn parse_class(file: &LibraryFile, all: &[LibraryFile]) -> Result<FurnitureClass
             ));
         }
         let size = SizeRange { width_m, depth_m, height_m };
-        let variant = match source {
+        // The shape, whether it came with normals and UVs, and its generator if any.
+        let (mesh, had_normals, had_uvs, generator) = match source {
             Source::Obj(span) => {
                 let obj_path = file.path.with_file_name(format!("{name}.obj"));
                 let Some(obj) = all.iter().find(|f| f.path == obj_path) else {
@@ -332,35 +333,25 @@ fn parse_class(file: &LibraryFile, all: &[LibraryFile]) -> Result<FurnitureClass
                     Some(m) if MaterialCatalog::is_surface(m) => m.to_string(),
                     _ => default_surface.clone(),
                 })?;
-                FurnitureVariant {
-                    name,
-                    weight,
-                    size,
-                    rule,
-                    support_top: mesh.support_top(),
-                    mesh,
-                    generator: None,
-                    had_normals: info.had_normals,
-                    had_uvs: info.had_uvs,
-                }
+                (mesh, info.had_normals, info.had_uvs, None)
             }
             Source::Generator(generator) => {
                 let mid = |r: [f32; 2]| (r[0] + r[1]) * 0.5;
                 let height = mid(height_m);
                 let nominal = glam::Vec3::new(width_m.map_or(height, mid), depth_m.map_or(height, mid), height);
-                let mesh = generator.prototype(nominal, raw.uniform_scale);
-                FurnitureVariant {
-                    name,
-                    weight,
-                    size,
-                    rule,
-                    support_top: mesh.support_top(),
-                    mesh,
-                    generator: Some(generator),
-                    had_normals: true,
-                    had_uvs: true,
-                }
+                (generator.prototype(nominal, raw.uniform_scale), true, true, Some(generator))
             }
+        };
+        let variant = FurnitureVariant {
+            name,
+            weight,
+            size,
+            rule,
+            support_top: mesh.support_top(),
+            mesh,
+            generator,
+            had_normals,
+            had_uvs,
         };
         variants.push(variant);
     }

@@ -235,21 +235,6 @@ impl MeshBuilder {
 }
 
 impl MeshBuilder {
-    /// An ellipsoid with semi-axes `radii` in the rigid frame `frame` (a leaf, a tilted
-    /// cushion): [`MeshBuilder::ellipsoid`] turned and moved.
-    pub fn ellipsoid_in(&mut self, surface: &'static str, frame: Mat4, radii: Vec3, segments: u32, rings: u32) {
-        let start = self.part(surface).positions.len();
-        self.ellipsoid(surface, Vec3::ZERO, radii, segments, rings);
-        let turn = Mat3::from_mat4(frame);
-        let part = self.part(surface);
-        for p in &mut part.positions[start..] {
-            *p = frame.transform_point3(*p);
-        }
-        for n in &mut part.normals[start..] {
-            *n = (turn * *n).normalize_or_zero();
-        }
-    }
-
     /// An open shell (a bathtub, a basin's bowl): a superellipse outline `|x/a|^n + |y/b|^n = 1`
     /// of half extents `outer` extruded from `z0` up by `height`, with an inner wall `wall`
     /// inside it (outline exponent `inner_exponent`), a floor `bottom` thick and a flat rim.
