@@ -175,6 +175,7 @@ pub fn feature_scene() -> Scene {
         envelope: Envelope { width_m: 9.0, depth_m: 4.0, height_m: 2.8 },
         wall_thickness_m: 0.1,
         house: scene_gen::scene::HouseRecord::default(),
+        palette: None,
         rooms: vec![
             Room { id: 0, room_type: "living_room".into(), min: Vec2::ZERO, max: Vec2::new(5.0, 4.0) },
             Room { id: 1, room_type: "bedroom".into(), min: Vec2::new(5.0, 0.0), max: Vec2::new(9.0, 4.0) },
@@ -203,6 +204,7 @@ pub fn feature_scene() -> Scene {
             width_m: 0.9,
             height_m: 2.0,
             normal: Vec2::X,
+            leaf: None,
         }],
         windows: Vec::new(),
         thresholds: vec![Threshold {

@@ -170,6 +170,7 @@ fn random_plan(seed: u64, lib: &Library) -> Floorplan {
             width_m,
             height_m: 2.0,
             normal,
+            leaf: None,
         });
     };
     let along = |rng: &mut ChaCha8Rng, lo: f32, hi: f32| rng.random_range(lo + 0.6..hi - 0.6);
@@ -453,6 +454,7 @@ fn check(
                 width_m: window.width_m,
                 height_m: 0.0,
                 normal: window.normal,
+                leaf: None,
             };
             let (a, b) = door_rect(&fake, -window.normal, window.width_m * 0.5, WALL_M * 0.5 + 0.25);
             if o.max.z > sill + EPS && rect_hits(o, a, b) {
@@ -580,6 +582,7 @@ fn generate_places_furniture_by_the_rules() {
     let lib = library();
     let mut classes = BTreeSet::new();
     let mut kinds = BTreeSet::new();
+    let (mut doors, mut leaves, mut curtains) = (0, 0, 0);
     let envelopes = [(15.0, 15.0, 3.0), (20.0, 10.0, 2.8), (10.0, 10.0, 3.0)];
     for (seed, (width_m, depth_m, height_m)) in (0..500_u64).flat_map(|s| envelopes.map(|e| (s, e))) {
         let envelope = scene_gen::scene::Envelope { width_m, depth_m, height_m };
@@ -602,11 +605,133 @@ fn generate_places_furniture_by_the_rules() {
             panic!("seed {seed}: {e}");
         }
         assert!(!scene.objects.is_empty(), "seed {seed}: no furniture");
+        if let Err(e) = check_leaves(&scene).and_then(|()| check_curtains(&scene)) {
+            panic!("seed {seed}, envelope {width_m} x {depth_m}: {e}");
+        }
+        curtains += scene.geometry.nodes.iter().filter(|n| n.name.starts_with("curtains_")).count();
+        doors += scene.doors.len();
+        leaves += scene.doors.iter().filter(|d| d.leaf.is_some()).count();
         classes.extend(scene.objects.iter().map(|o| o.class));
         kinds.extend(scene.furnishings.iter().map(|f| f.kind));
     }
     assert_eq!(classes.len(), 10, "classes seen through generate() over 500 seeds x 3 envelopes: {classes:?}");
     assert_eq!(kinds.len(), FurnishingKind::ALL.len(), "furnishings seen: {kinds:?}");
+    assert!(leaves * 100 >= doors * 95, "only {leaves} of {doors} doors have a leaf");
+    assert!(curtains > 1000, "{curtains} curtained windows in 1500 houses");
+}
+
+/// Every curtain hangs inside its room, and each of its boxes (pleats, rod) is clear of every
+/// object and furnishing.
+fn check_curtains(scene: &scene_gen::scene::Scene) -> Result<(), String> {
+    for node in scene.geometry.nodes.iter().filter(|n| n.name.starts_with("curtains_")) {
+        let Semantic::Decor { room } = node.semantic else { return Err(format!("{}: not decor", node.name)) };
+        let (rlo, rhi) = scene.room(room).expect("curtain room exists").interior(scene.wall_thickness_m);
+        let mesh = &scene.geometry.meshes[node.mesh];
+        // The mesh is built of closed boxes, 24 vertices each.
+        for cuboid in mesh.primitives.iter().flat_map(|p| p.positions.chunks(24)) {
+            let (lo, hi) = cuboid
+                .iter()
+                .map(|&p| node.transform.transform_point3(p))
+                .fold((Vec3::MAX, Vec3::MIN), |(lo, hi), p| (lo.min(p), hi.max(p)));
+            if lo.truncate().cmplt(rlo - 1e-3).any() || hi.truncate().cmpgt(rhi + 1e-3).any() {
+                return Err(format!("{}: {lo} .. {hi} leaves room {room}", node.name));
+            }
+            let boxes =
+                scene.objects.iter().map(|o| (o.min, o.max)).chain(scene.furnishings.iter().map(|f| (f.min, f.max)));
+            for (min, max) in boxes {
+                if min.cmplt(hi - 1e-3).all() && max.cmpgt(lo + 1e-3).all() {
+                    return Err(format!("{}: {lo} .. {hi} meets furniture {min} .. {max}", node.name));
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+#[test]
+fn houses_are_decorated_in_their_palette() {
+    let lib = library();
+    let mut names = BTreeSet::new();
+    for seed in 0..24 {
+        let scene = generate(&GeneratorConfig { seed, ..GeneratorConfig::default() }, &lib).unwrap();
+        let palette = scene.palette.expect("a generated house has a palette");
+        names.insert(palette.name);
+        let mut checked = 0;
+        for material in &scene.geometry.materials {
+            let Some((surface, variant)) = material.name.rsplit_once('_') else { continue };
+            let variant: u32 = variant.parse().expect("materials are named <surface>_<variant>");
+            if let Some((_, named)) = palette.colours.iter().find(|(s, _)| *s == surface) {
+                let base = scene_gen::textures::base_colours(surface).expect("palette surfaces have base colours");
+                let colour = base[variant as usize % base.len()];
+                assert!(
+                    named.contains(&colour),
+                    "seed {seed}: {} is {colour:06x}, outside {}",
+                    material.name,
+                    palette.name
+                );
+                checked += 1;
+            }
+        }
+        assert!(checked >= 4, "seed {seed}: only {checked} palette surfaces");
+        let manifest = scene_gen::manifest::Manifest::of(&scene).to_json();
+        assert!(manifest.contains(&format!("\"palette\": \"{}\"", palette.name)));
+    }
+    assert!(names.len() >= 4, "24 houses drew only {names:?}");
+}
+
+/// Distance from `p` to the segment `a..b`.
+fn to_segment(p: Vec2, a: Vec2, b: Vec2) -> f32 {
+    let t = ((p - a).dot(b - a) / (b - a).length_squared()).clamp(0.0, 1.0);
+    p.distance(a + (b - a) * t)
+}
+
+/// Every door leaf stands open (90 degrees or more) inside the room it opens into, clear of
+/// every piece of furniture, with its node in the geometry, and leaves the doorway passable: the
+/// straight walk through the middle of the doorway keeps 0.3 m from it.
+fn check_leaves(scene: &scene_gen::scene::Scene) -> Result<(), String> {
+    for door in &scene.doors {
+        let Some(leaf) = door.leaf else { continue };
+        let tag = format!("door {}", door.id);
+        if !door.rooms.contains(&Some(leaf.room)) {
+            return Err(format!("{tag}: leaf opens into room {}, not one of the door's", leaf.room));
+        }
+        if !(90.0..=175.0).contains(&leaf.open_deg) {
+            return Err(format!("{tag}: leaf open {} degrees", leaf.open_deg));
+        }
+        let room = scene.room(leaf.room).expect("leaf room exists");
+        let (lo, hi) = room.interior(scene.wall_thickness_m);
+        let along: Vec<Vec2> =
+            (0..=50).map(|i| leaf.hinge + leaf.direction * (leaf.width_m * i as f32 / 50.0)).collect();
+        let half = 0.5 * leaf.thickness_m;
+        if leaf.footprint(0.0).iter().any(|p| p.cmplt(lo - 1e-3).any() || p.cmpgt(hi + 1e-3).any()) {
+            return Err(format!("{tag}: leaf leaves room {}", room.id));
+        }
+        // Points over the slab's footprint: along its length, on its centre line and both faces.
+        let across = leaf.direction.perp() * (half - 1e-3);
+        let slab: Vec<Vec2> = along.iter().flat_map(|&p| [p - across, p, p + across]).collect();
+        let boxes =
+            scene.objects.iter().map(|o| (o.min, o.max)).chain(scene.furnishings.iter().map(|f| (f.min, f.max)));
+        for (min, max) in boxes {
+            let (min, max) = (min.truncate() + Vec2::splat(1e-3), max.truncate() - Vec2::splat(1e-3));
+            if slab.iter().any(|p| p.cmpgt(min).all() && p.cmplt(max).all()) {
+                return Err(format!("{tag}: leaf runs into furniture at {min} .. {max}"));
+            }
+        }
+        let centre = door.center.truncate();
+        let walk = (centre - door.normal * 0.6, centre + door.normal * 0.6);
+        let nearest = along.iter().map(|&p| to_segment(p, walk.0, walk.1)).fold(f32::INFINITY, f32::min) - half;
+        if nearest < 0.3 {
+            return Err(format!("{tag}: leaf comes within {nearest} m of the walk through the doorway"));
+        }
+        let named = format!("door_leaf_{}", door.id);
+        if !scene.geometry.nodes.iter().any(|n| {
+            n.name == named
+                && n.semantic == Semantic::Opening { kind: scene_gen::scene::OpeningKind::Door, id: door.id }
+        }) {
+            return Err(format!("{tag}: no node {named}"));
+        }
+    }
+    Ok(())
 }
 
 fn place_and_check(lib: &Library, seed: u64) -> Result<Vec<Object>, String> {

@@ -669,6 +669,7 @@ mod tests {
             envelope: Envelope::default(),
             wall_thickness_m: 0.1,
             house: scene_gen_scene::scene::HouseRecord::default(),
+            palette: None,
             rooms: vec![Room { id: 0, room_type: "bedroom".into(), min: Vec2::ZERO, max: Vec2::new(5.0, 5.0) }],
             walls: vec![],
             doors: vec![Door {
@@ -679,6 +680,7 @@ mod tests {
                 width_m: 0.9,
                 height_m: 2.0,
                 normal: Vec2::NEG_Y,
+                leaf: None,
             }],
             windows: vec![],
             thresholds: vec![Threshold { id: 0, door: 0, instance_id: 1, min: Vec3::ZERO, max: Vec3::ONE }],

@@ -18,6 +18,7 @@ pub fn empty_scene() -> Scene {
         envelope: Envelope::default(),
         wall_thickness_m: 0.0,
         house: scene_gen_scene::scene::HouseRecord::default(),
+        palette: None,
         rooms: Vec::new(),
         walls: Vec::new(),
         doors: Vec::new(),

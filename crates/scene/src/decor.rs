@@ -1,16 +1,21 @@
-//! Unlabelled decoration: rugs on floors and pictures on walls.
+//! Unlabelled decoration: rugs on floors, curtains at windows and pictures on walls.
 //!
 //! Decor carries no class label, but it carries texture: it is what gives ORB features and
 //! detectors the clutter of a lived-in room. Pictures hang on the inner faces of walls, clear of
 //! openings and of tall furniture; rugs lie flat near a room's centre and never reach a door.
+//! Curtains hang in pleats from a rod above a window, one panel each side, to the floor where
+//! the floor beside the window is free, else to just below the sill, else to the sill; a panel
+//! that would still meet furniture, a door leaf or another opening is left out.
 
 use glam::{Mat4, Quat, Vec2, Vec3};
 use rand::Rng;
+use rand::seq::IndexedRandom;
 
 use crate::config::GeneratorConfig;
 use crate::floorplan::Floorplan;
 use crate::materials::MaterialCatalog;
-use crate::scene::{Geometry, Mesh, Node, Primitive, Room, Semantic, Wall};
+use crate::procedural::builder::MeshBuilder;
+use crate::scene::{Geometry, Mesh, Node, OpeningKind, Primitive, Room, Semantic, Wall, Window};
 
 /// Height of a picture's centre above the floor (eye level, gallery convention ~1.45 m).
 const PICTURE_CENTER_M: f32 = 1.45;
@@ -24,9 +29,19 @@ const RUG_HEIGHT_M: f32 = 0.01;
 const RUG_WALL_MARGIN_M: f32 = 1.0;
 /// Number of texture variants drawn for decor surfaces.
 const VARIANTS: u32 = 8;
+/// Chance that a room's windows have curtains.
+const CURTAINED_ROOM_CHANCE: f64 = 0.75;
+/// Curtain rod: above the window head, and out from the wall face.
+const ROD_ABOVE_HEAD_M: f32 = 0.12;
+const ROD_OFF_WALL_M: f32 = 0.1;
+/// Depth of a curtain's pleats (front to back) and thickness of its cloth.
+const PLEAT_DEPTH_M: f32 = 0.05;
+const CLOTH_M: f32 = 0.008;
+/// How far a drawn-back panel reaches over the window's edge.
+const PANEL_OVERLAP_M: f32 = 0.08;
 
-/// Adds rugs and pictures to `geometry`; pictures keep clear of `furniture`, the world boxes
-/// (min, max) of the placed objects and furnishings.
+/// Adds rugs, curtains and pictures to `geometry`; curtains and pictures keep clear of
+/// `furniture`, the world boxes (min, max) of the placed objects, furnishings and door leaves.
 pub fn build(
     config: &GeneratorConfig,
     plan: &Floorplan,
@@ -34,6 +49,23 @@ pub fn build(
     materials: &mut MaterialCatalog,
     geometry: &mut Geometry,
 ) {
+    let mut furniture = furniture.to_vec();
+    // Curtains draw from their own stream, so rugs and pictures keep their draws.
+    let mut curtain_rng = scene_gen_core::rng::stream(config.seed, "curtains");
+    for room in &plan.rooms {
+        if curtain_rng.random_bool(CURTAINED_ROOM_CHANCE) {
+            let fabric = *["fabric", "linen"].choose(&mut curtain_rng).expect("non-empty");
+            let material = materials
+                .material(geometry, fabric, curtain_rng.random_range(0..VARIANTS))
+                .expect("curtain fabrics are known surfaces");
+            let rod = materials.material(geometry, "metal", 0).expect("metal is a known surface");
+            for window in plan.windows.iter().filter(|w| w.room == room.id) {
+                let width = curtain_rng.random_range(0.25..0.45);
+                add_curtains(config, plan, room, window, width, [material, rod], &mut furniture, geometry);
+            }
+        }
+    }
+    let furniture = &furniture[..];
     let mut rng = scene_gen_core::rng::stream(config.seed, "decor");
     for room in &plan.rooms {
         if rng.random_bool(0.6) {
@@ -118,6 +150,101 @@ fn add_picture(
         transform: Mat4::from_rotation_translation(Quat::from_rotation_z(yaw), center),
         semantic: Semantic::Decor { room: room.id },
     });
+}
+
+/// Hangs a rod and two pleated panels of `width` at `window`, each panel as long as the
+/// floor beside it allows, and records their boxes in `furniture`.
+#[allow(clippy::too_many_arguments)]
+fn add_curtains(
+    config: &GeneratorConfig,
+    plan: &Floorplan,
+    room: &Room,
+    window: &Window,
+    width: f32,
+    [cloth, rod]: [usize; 2],
+    furniture: &mut Vec<(Vec3, Vec3)>,
+    geometry: &mut Geometry,
+) {
+    let inward = -window.normal;
+    // Curtain frame: x along the wall (window centre at 0), y into the room from the wall
+    // face, z up; x is chosen so that x, y, z are right-handed.
+    let along = Vec2::new(inward.y, -inward.x);
+    let face = window.center.truncate() + inward * (0.5 * config.wall_thickness_m);
+    let to_world = |x: f32, y: f32| face + along * x + inward * y;
+    let sill = window.center.z - 0.5 * window.height_m;
+    let top = (window.center.z + 0.5 * window.height_m + ROD_ABOVE_HEAD_M).min(config.envelope.height_m - 0.05);
+    let (lo, hi) = room.interior(config.wall_thickness_m);
+    let depth = (ROD_OFF_WALL_M - 0.5 * PLEAT_DEPTH_M - CLOTH_M, ROD_OFF_WALL_M + 0.5 * PLEAT_DEPTH_M + CLOTH_M);
+    let wall = &plan.walls[window.wall as usize];
+    let centre_offset = (window.center.truncate() - wall.a).length();
+    let mut b = MeshBuilder::default();
+    let mut span = (f32::INFINITY, f32::NEG_INFINITY);
+    for side in [-1.0_f32, 1.0] {
+        let inner = side * (0.5 * window.width_m - PANEL_OVERLAP_M);
+        let x = if side < 0.0 { (inner - width, inner) } else { (inner, inner + width) };
+        // The panel's stretch of wall, as offsets from the wall's `a`, keeps off other openings.
+        let ends = [x.0, x.1].map(|x| centre_offset + x * along.dot(wall.b - wall.a).signum());
+        let (s0, s1) = (ends[0].min(ends[1]), ends[0].max(ends[1]));
+        let beside_opening = wall
+            .openings
+            .iter()
+            .filter(|o| (o.kind, o.id) != (OpeningKind::Window, window.id))
+            .any(|o| s0 < o.offset_m + 0.5 * o.width_m + 0.05 && s1 > o.offset_m - 0.5 * o.width_m - 0.05);
+        // The slanted pleats at the panel's ends reach a little past its span.
+        let corners = [to_world(x.0 - PLEAT_DEPTH_M, depth.0), to_world(x.1 + PLEAT_DEPTH_M, depth.1)];
+        let (min2, max2) = (corners[0].min(corners[1]), corners[0].max(corners[1]));
+        if beside_opening || min2.cmplt(lo).any() || max2.cmpgt(hi).any() {
+            continue;
+        }
+        let free = |bottom: f32| {
+            !furniture.iter().any(|(fmin, fmax)| {
+                fmin.truncate().cmplt(max2).all()
+                    && fmax.truncate().cmpgt(min2).all()
+                    && fmin.z < top
+                    && fmax.z > bottom
+            })
+        };
+        let Some(bottom) = [0.02, sill - 0.1, sill + 0.01].into_iter().find(|&z| z < top - 0.3 && free(z)) else {
+            continue;
+        };
+        pleated_panel(&mut b, x, bottom, top - 0.03);
+        furniture.push((min2.extend(bottom), max2.extend(top)));
+        span = (span.0.min(x.0), span.1.max(x.1));
+    }
+    if span.0 > span.1 {
+        return;
+    }
+    b.box_in(
+        "metal",
+        Mat4::from_translation(Vec3::new(0.5 * (span.0 + span.1), ROD_OFF_WALL_M, top - 0.015)),
+        Vec3::new(span.1 - span.0, 0.02, 0.02),
+    );
+    let id = geometry.nodes.len();
+    let name = format!("curtains_{id}");
+    let mesh = b.into_asset_mesh().to_mesh(&name, |surface| if surface == "metal" { rod } else { cloth });
+    geometry.meshes.push(mesh);
+    let yaw = along.y.atan2(along.x);
+    geometry.nodes.push(Node {
+        name,
+        mesh: geometry.meshes.len() - 1,
+        transform: Mat4::from_translation(face.extend(0.0)) * Mat4::from_rotation_z(yaw),
+        semantic: Semantic::Decor { room: room.id },
+    });
+}
+
+/// A pleated panel across `x` (curtain frame), from `bottom` to `top`: a zigzag of cloth
+/// strips around the rod's line, [`PLEAT_DEPTH_M`] deep.
+fn pleated_panel(b: &mut MeshBuilder, x: (f32, f32), bottom: f32, top: f32) {
+    let pleats = ((x.1 - x.0) / 0.07).round().max(3.0) as usize;
+    let step = (x.1 - x.0) / pleats as f32;
+    let slant = PLEAT_DEPTH_M.atan2(step);
+    let length = step.hypot(PLEAT_DEPTH_M);
+    for i in 0..pleats {
+        let sign = if i % 2 == 0 { 1.0 } else { -1.0 };
+        let centre = Vec3::new(x.0 + (i as f32 + 0.5) * step, ROD_OFF_WALL_M, 0.5 * (bottom + top));
+        let frame = Mat4::from_translation(centre) * Mat4::from_rotation_z(sign * slant);
+        b.box_in("fabric", frame, Vec3::new(length, CLOTH_M, top - bottom));
+    }
 }
 
 /// An offset along the wall for an item of `width`, clear of wall ends and openings.

@@ -510,6 +510,7 @@ fn place_doors(
             width_m: width,
             height_m: height,
             normal: normal_away_from(wall, room0),
+            leaf: None,
         });
         wall.openings.push(Opening {
             kind: OpeningKind::Door,

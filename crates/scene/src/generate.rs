@@ -2,7 +2,7 @@
 //!
 //! Stages run in a fixed order, each drawing from its own seeded stream (see [`scene_gen_core::rng`]):
 //! floorplan, structure (floors, ceilings, walls, windows, thresholds), furniture placement,
-//! decor (rugs, pictures), lights.
+//! door leaves, decor (rugs, pictures), lights.
 
 use crate::config::{ConfigError, GeneratorConfig};
 use crate::floorplan::{self, FloorplanError};
@@ -10,7 +10,7 @@ use crate::library::Library;
 use crate::materials::MaterialCatalog;
 use crate::placement::{self, PlacementError};
 use crate::scene::{Geometry, HouseRecord, Scene};
-use crate::{decor, lights, structure};
+use crate::{decor, doors, lights, structure};
 
 /// Why a scene could not be generated.
 #[derive(Debug, thiserror::Error)]
@@ -31,13 +31,19 @@ pub fn generate(config: &GeneratorConfig, library: &Library) -> Result<Scene, Ge
     let started = std::time::Instant::now();
     let mut geometry = Geometry::default();
     let mut materials = MaterialCatalog::new(config.seed);
-    let plan = floorplan::generate(config, &library.rooms)?;
+    let mut plan = floorplan::generate(config, &library.rooms)?;
     let thresholds = structure::build(config, &plan, &library.rooms, &mut materials, &mut geometry)?;
     let first_object_instance = thresholds.iter().map(|t| t.instance_id).max().unwrap_or(0) + 1;
     let (objects, furnishings) =
         placement::place(config, &plan, &thresholds, library, first_object_instance, &mut materials, &mut geometry)?;
-    let furniture: Vec<_> =
+    let mut furniture: Vec<_> =
         objects.iter().map(|o| (o.min, o.max)).chain(furnishings.iter().map(|f| (f.min, f.max))).collect();
+    let leaves = doors::build(config, &plan, &furniture, &mut materials, &mut geometry);
+    for (door, leaf) in plan.doors.iter_mut().zip(leaves) {
+        door.leaf = leaf;
+    }
+    // Pictures keep clear of leaves as of furniture.
+    furniture.extend(plan.doors.iter().filter_map(|d| d.leaf).map(|leaf| leaf_bounds(&leaf)));
     decor::build(config, &plan, &furniture, &mut materials, &mut geometry);
     let lights = lights::build(config, &plan, &objects);
     log::info!(
@@ -59,6 +65,7 @@ pub fn generate(config: &GeneratorConfig, library: &Library) -> Result<Scene, Ge
             rooms: library.rooms_id.clone(),
             furniture: library.furniture_id.clone(),
         },
+        palette: materials.palette(),
         rooms: plan.rooms,
         walls: plan.walls,
         doors: plan.doors,
@@ -69,4 +76,12 @@ pub fn generate(config: &GeneratorConfig, library: &Library) -> Result<Scene, Ge
         lights,
         geometry,
     })
+}
+
+/// The world box of a door leaf and its handles.
+fn leaf_bounds(leaf: &crate::scene::DoorLeaf) -> (glam::Vec3, glam::Vec3) {
+    let footprint = leaf.footprint(doors::HANDLE_REACH_M);
+    let lo = footprint.iter().fold(glam::Vec2::MAX, |m, p| m.min(*p));
+    let hi = footprint.iter().fold(glam::Vec2::MIN, |m, p| m.max(*p));
+    (lo.extend(0.0), hi.extend(leaf.height_m))
 }

@@ -1,8 +1,8 @@
 //! A seeded house: the first stage of scene-gen.
 //!
 //! ```text
-//! seed + envelope ─► floorplan ─► structure ─► placement ─► decor, lights ─► Scene ─► trajectory
-//!  (config)          (library:    walls,       (library:    day / night              the agent's walk
+//! seed + envelope ─► floorplan ─► structure ─► placement ─► door leaves, decor, lights ─► Scene ─► trajectory
+//!  (config)          (library:    walls,       (library:                 day / night              the agent's walk
 //!                     rooms/)     thresholds    furniture/)
 //! ```
 //!
@@ -11,8 +11,9 @@
 //!   [`assets`] turns furniture OBJ meshes into scene meshes; [`procedural`] builds a shape of
 //!   its own for every object from its class's generator.
 //! * [`generate`]: runs the stages in order and returns a [`scene::Scene`].
-//! * [`floorplan`], [`structure`], [`placement`], [`decor`], [`lights`]: the stages.
-//! * [`materials`]: named surfaces to PBR materials with seeded procedural [`textures`].
+//! * [`floorplan`], [`structure`], [`placement`], [`doors`], [`decor`], [`lights`]: the stages.
+//! * [`materials`]: named surfaces to PBR materials with seeded procedural [`textures`], in
+//!   the house's colour [`palette`].
 //! * [`scene`]: the hub type every later stage reads; [`manifest`]: its `scene.json` form.
 //! * [`trajectory`]: the agent's walk through every room and door; [`house`]: a seed's house
 //!   with its walk, where rendering, evaluation and datasets start.
@@ -28,6 +29,7 @@
 pub mod assets;
 pub mod config;
 pub mod decor;
+pub mod doors;
 pub mod floorplan;
 pub mod generate;
 pub mod house;
@@ -35,6 +37,7 @@ pub mod library;
 pub mod lights;
 pub mod manifest;
 pub mod materials;
+pub mod palette;
 pub mod placement;
 pub mod procedural;
 pub mod scene;

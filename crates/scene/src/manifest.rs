@@ -19,6 +19,10 @@ pub struct Manifest {
     /// recorded (readers then assume the defaults).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub house: Option<HouseRecord>,
+    /// The house's colour palette ([`crate::palette::PALETTES`]); absent for scenes without
+    /// one and in manifests written before palettes existed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub palette: Option<String>,
     pub rooms: Vec<Room>,
     pub walls: Vec<Wall>,
     pub doors: Vec<Door>,
@@ -42,6 +46,7 @@ impl Manifest {
             envelope: scene.envelope,
             wall_thickness_m: scene.wall_thickness_m,
             house: Some(scene.house.clone()),
+            palette: scene.palette.map(|p| p.name.to_string()),
             rooms: scene.rooms.clone(),
             walls: scene.walls.clone(),
             doors: scene.doors.clone(),

@@ -8,11 +8,13 @@
 //! Every surface is textured ([`crate::textures`]): the texture holds the colour and pattern,
 //! the material's base colour factor is white, except for gold (its linear base colour as
 //! the factor, over a near-white brushed texture) and glass (alpha below 1, rendered blended).
-//! The variant a caller passes (the scene seed picks it) selects palette and pattern
-//! parameters; it is taken modulo [`VARIANTS`].
+//! The variant a caller passes (the scene seed picks it) selects colour and pattern
+//! parameters; the house's [`Palette`] maps it to a variant in the house's colours for the
+//! surfaces the palette names, and every variant is taken modulo [`VARIANTS`].
 
 use std::collections::HashMap;
 
+use crate::palette::Palette;
 use crate::scene::{Geometry, Material, Texture};
 pub use crate::textures::VARIANTS;
 
@@ -85,13 +87,27 @@ fn pbr(surface: &str) -> ([f32; 4], f32, f32) {
 #[derive(Debug)]
 pub struct MaterialCatalog {
     seed: u64,
+    palette: Option<&'static Palette>,
     made: HashMap<(String, u32), usize>,
 }
 
 impl MaterialCatalog {
+    /// The catalog of the house with `seed`, in the house's palette ([`Palette::of_seed`]).
     #[must_use]
     pub fn new(seed: u64) -> MaterialCatalog {
-        MaterialCatalog { seed, made: HashMap::new() }
+        MaterialCatalog::with_palette(seed, Some(Palette::of_seed(seed)))
+    }
+
+    /// A catalog in `palette`, or in every colour of every surface (`None`).
+    #[must_use]
+    pub fn with_palette(seed: u64, palette: Option<&'static Palette>) -> MaterialCatalog {
+        MaterialCatalog { seed, palette, made: HashMap::new() }
+    }
+
+    /// The palette the catalog draws colours from, if any.
+    #[must_use]
+    pub fn palette(&self) -> Option<&'static Palette> {
+        self.palette
     }
 
     /// The scene seed this catalog was made for (callers derive variants from it).
@@ -106,13 +122,13 @@ impl MaterialCatalog {
         SURFACES.contains(&name)
     }
 
-    /// Index in `geometry.materials` of `surface` in variant `variant` (modulo [`VARIANTS`]),
-    /// adding the material and its texture to `geometry` the first time.
+    /// Index in `geometry.materials` of `surface` in variant `variant` (through the palette,
+    /// modulo [`VARIANTS`]), adding the material and its texture to `geometry` the first time.
     pub fn material(&mut self, geometry: &mut Geometry, surface: &str, variant: u32) -> Result<usize, UnknownSurface> {
         if !Self::is_surface(surface) {
             return Err(UnknownSurface(surface.to_string()));
         }
-        let variant = variant % VARIANTS;
+        let variant = self.palette.map_or(variant % VARIANTS, |p| p.variant(surface, variant));
         if let Some(&index) = self.made.get(&(surface.to_string(), variant)) {
             return Ok(index);
         }
@@ -146,7 +162,7 @@ mod tests {
     #[test]
     fn materials_are_deduplicated_per_surface_and_variant() {
         let mut geometry = Geometry::default();
-        let mut catalog = MaterialCatalog::new(7);
+        let mut catalog = MaterialCatalog::with_palette(7, None);
         let a = catalog.material(&mut geometry, "wood", 1).unwrap();
         let b = catalog.material(&mut geometry, "wood", 1 + VARIANTS).unwrap();
         let c = catalog.material(&mut geometry, "wood", 2).unwrap();

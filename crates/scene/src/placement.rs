@@ -40,7 +40,7 @@ use crate::floorplan::Floorplan;
 use crate::library::Library;
 use crate::library::furniture::{FurnitureVariant, Place, Rule};
 use crate::materials::MaterialCatalog;
-use crate::scene::{Furnishing, Geometry, Kind, Node, Object, Room, Semantic, Threshold};
+use crate::scene::{Door, Furnishing, Geometry, Kind, Node, Object, Room, Semantic, Threshold};
 use scene_gen_core::rng;
 
 /// Free width kept beside a door on each side, beyond its own width.
@@ -506,34 +506,42 @@ fn draw_scale(rng: &mut ChaCha8Rng, variant: &FurnitureVariant, uniform: bool) -
     }
 }
 
+/// A rectangle spanned from `origin` by `tangent` (lateral range) and `inward` (depth range).
+fn span(origin: Vec2, tangent: Vec2, inward: Vec2, lateral: [f32; 2], depth: [f32; 2]) -> Rect {
+    Rect::around(
+        [(lateral[0], depth[0]), (lateral[1], depth[0]), (lateral[1], depth[1]), (lateral[0], depth[1])]
+            .map(|(a, b)| origin + tangent * a + inward * b),
+    )
+}
+
+/// The floor kept free in front of `door` on the side of room `room` (the door's width and
+/// [`DOOR_MARGIN_M`] each side, [`DOOR_CLEAR_DEPTH_M`] deep from the wall face); `None` when
+/// the door does not open on that room.
+#[must_use]
+pub fn door_clearance(door: &Door, room: u32, wall_thickness_m: f32) -> Option<Rect> {
+    let inward = if door.rooms[0] == Some(room) {
+        -door.normal
+    } else if door.rooms[1] == Some(room) {
+        door.normal
+    } else {
+        return None;
+    };
+    let tangent = Vec2::new(-inward.y, inward.x);
+    let half = door.width_m * 0.5 + DOOR_MARGIN_M;
+    let depth = wall_thickness_m * 0.5 + DOOR_CLEAR_DEPTH_M;
+    Some(span(door.center.truncate(), tangent, inward, [-half, half], [0.0, depth]))
+}
+
 /// The rectangles kept free in `room`: door clearances, thresholds, and (for objects above the sill) strips in front of windows.
 #[must_use]
 pub fn keep_out_zones(plan: &Floorplan, thresholds: &[Threshold], room: &Room, wall_thickness_m: f32) -> Vec<Zone> {
-    let mut zones = Vec::new();
     let face = wall_thickness_m * 0.5;
-    // A rectangle spanned from `origin` by `tangent` (lateral range) and `inward` (depth range).
-    let span = |origin: Vec2, tangent: Vec2, inward: Vec2, lateral: [f32; 2], depth: [f32; 2]| {
-        Rect::around(
-            [(lateral[0], depth[0]), (lateral[1], depth[0]), (lateral[1], depth[1]), (lateral[0], depth[1])]
-                .map(|(a, b)| origin + tangent * a + inward * b),
-        )
-    };
-    for door in &plan.doors {
-        let inward = if door.rooms[0] == Some(room.id) {
-            -door.normal
-        } else if door.rooms[1] == Some(room.id) {
-            door.normal
-        } else {
-            continue;
-        };
-        let c = door.center.truncate();
-        let tangent = Vec2::new(-inward.y, inward.x);
-        let half = door.width_m * 0.5 + DOOR_MARGIN_M;
-        zones.push(Zone {
-            rect: span(c, tangent, inward, [-half, half], [0.0, face + DOOR_CLEAR_DEPTH_M]),
-            above_m: -1.0,
-        });
-    }
+    let mut zones: Vec<Zone> = plan
+        .doors
+        .iter()
+        .filter_map(|door| door_clearance(door, room.id, wall_thickness_m))
+        .map(|rect| Zone { rect, above_m: -1.0 })
+        .collect();
     for window in plan.windows.iter().filter(|w| w.room == room.id) {
         let inward = -window.normal;
         let tangent = Vec2::new(-inward.y, inward.x);

@@ -333,6 +333,51 @@ pub struct Door {
     pub height_m: f32,
     /// Unit horizontal normal of the wall, pointing from room `a` towards `b`.
     pub normal: Vec2,
+    /// The door's leaf, standing open; `None` where no leaf was hung (every door of a
+    /// generated house has one unless nothing left it room to open, and manifests written
+    /// before leaves existed have none).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub leaf: Option<DoorLeaf>,
+}
+
+/// The leaf of a door, standing open into one of the door's rooms: a slab hinged on a
+/// vertical axis at one jamb, just off the wall's face.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct DoorLeaf {
+    /// The room it opens into.
+    pub room: u32,
+    /// The hinge axis, at floor level.
+    pub hinge: Vec2,
+    /// Unit horizontal direction from the hinge to the leaf's free edge.
+    pub direction: Vec2,
+    /// How far it stands open, degrees from closed: 90 is square to the wall, 180 back
+    /// against it.
+    pub open_deg: f32,
+    /// Hinge to free edge.
+    pub width_m: f32,
+    pub thickness_m: f32,
+    /// Top edge above the floor (the leaf clears the floor by [`DoorLeaf::UNDERCUT_M`]).
+    pub height_m: f32,
+}
+
+impl DoorLeaf {
+    /// Gap between the floor and the bottom of a leaf.
+    pub const UNDERCUT_M: f32 = 0.01;
+
+    /// The end of the leaf's centre line at its free edge, at floor level.
+    #[must_use]
+    pub fn free_edge(&self) -> Vec2 {
+        self.hinge + self.direction * self.width_m
+    }
+
+    /// Corners of the leaf's footprint, counter-clockwise, with its faces grown by `pad_m`
+    /// (handles, clearance).
+    #[must_use]
+    pub fn footprint(&self, pad_m: f32) -> [Vec2; 4] {
+        let half = self.direction.perp() * (0.5 * self.thickness_m + pad_m);
+        let (a, b) = (self.hinge, self.free_edge());
+        [a - half, b - half, b + half, a + half]
+    }
 }
 
 /// A window in an exterior wall.
@@ -575,6 +620,8 @@ pub struct Scene {
     pub wall_thickness_m: f32,
     /// The generator's options and libraries this house was made with.
     pub house: HouseRecord,
+    /// The colour scheme the house is decorated in (`None` for a scene built by hand).
+    pub palette: Option<&'static crate::palette::Palette>,
     pub rooms: Vec<Room>,
     pub walls: Vec<Wall>,
     pub doors: Vec<Door>,

@@ -411,6 +411,7 @@ mod tests {
             width_m: 0.9,
             height_m: 2.0,
             normal: Vec2::NEG_Y,
+            leaf: None,
         };
         let plan = Floorplan { rooms: vec![room], walls, doors: vec![door], windows: Vec::new() };
         let rt = RoomType {

@@ -28,7 +28,40 @@ pub const TEXTURE_SIZE: u32 = 256;
 
 /// Number of distinct variants per surface; a caller's variant is taken modulo this, which
 /// bounds the cache and lets materials be shared across scenes.
-pub const VARIANTS: u32 = 8;
+pub const VARIANTS: u32 = 16;
+
+/// Base colours (sRGB hex) of the surfaces whose texture is drawn in one colour: variant `v`
+/// takes entry `v` modulo the list's length, with a small brightness jitter of its own. House
+/// palettes ([`crate::palette`]) choose among these entries.
+pub const BASE_COLOURS: &[(&str, &[u32])] = &[
+    ("wood_floor", &[0xa0703f, 0xc89a64, 0x6a4428, 0xd8b88c, 0x8a5a3a]),
+    ("wood", &[0x8a5a36, 0xb98a5a, 0x5e3b24, 0xc9a27a, 0x6f4a2e]),
+    ("frame", &[0x3b2a1e, 0x8a6a3a, 0xe8e2d6, 0x202020]),
+    ("carpet", &[0x7a7f86, 0xa89a80, 0x5a6a5a, 0x8a5050, 0x4a5a7a, 0xc8c0b0]),
+    (
+        "fabric",
+        &[0x6a7a8a, 0x8a6a5a, 0x4a5a4a, 0xb0a48c, 0x6e4e6e, 0xa4583a, 0x2e4a6e, 0x8a8f5a, 0x7a2a30, 0xc8c0b0, 0x505458],
+    ),
+    ("linen", &[0xeeeae0, 0xdfe6ee, 0xe8dccc, 0xf4f4f4]),
+    ("lampshade", &[0xf0e6d0, 0xe8e8e0, 0xd8c8a8]),
+    ("paint", &[0xece8e0, 0xdcd6c8, 0xc8d4d8, 0xd8dcc8, 0xe8d8d0, 0xf4f2ee, 0xc3ccb4, 0xa9b8c4, 0xd8bfa8, 0x8c9094]),
+    ("ceiling", &[0xf2f1ee, 0xeeeeea, 0xf6f4f0]),
+    ("wallpaper", &[0xe8e0d0, 0xd0d8e0, 0xe0d0c8, 0xd8e0d0, 0xf0ece4]),
+    ("leather", &[0x4a2e20, 0x1e1a18, 0x7a4a2a, 0xa08060, 0x6a2020]),
+    ("metal", &[0xb8bcc0, 0x9a9ea4, 0xc8c4bc]),
+    ("plastic", &[0xe8e8e8, 0x303234, 0xc83a32, 0x3a6ac8, 0xe8c830, 0x48a048]),
+    ("ceramic", &[0xf6f6f4, 0xeef2f4, 0xf2ece4]),
+    ("screen", &[0x0c0d10, 0x101214, 0x08090c]),
+    ("pot", &[0xa85a3a, 0x3a4a5a, 0xe8e0d4, 0x5a6a4a, 0x2a2a2a]),
+    ("soil", &[0x3a2a1e, 0x2e221a, 0x4a3626]),
+    ("leaf", &[0x3a6a2a, 0x2a5a2e, 0x4a7a30, 0x5a7a3a]),
+];
+
+/// The base colours of `surface`, if its texture is drawn in one colour.
+#[must_use]
+pub fn base_colours(surface: &str) -> Option<&'static [u32]> {
+    BASE_COLOURS.iter().find(|(name, _)| *name == surface).map(|(_, colours)| *colours)
+}
 
 /// A baked texture: sRGB RGBA8 pixels and the same image as PNG (RGB, alpha is always opaque).
 #[derive(Debug, PartialEq, Eq)]
@@ -269,33 +302,29 @@ fn pixels(surface: &str, variant: u32, size: usize) -> Option<Vec<u8>> {
     let rng = &mut rng;
     // Palette picks draw from their own stream, so they never shift the pattern's draws.
     let mut palette_rng = scene_gen_core::rng::substream(u64::from(variant), &label, 1);
-    let mut pick = |palette: &[u32], variant: u32| pick(&mut palette_rng, palette, variant);
+    let base = base_colours(surface).map_or([1.0; 3], |colours| pick(&mut palette_rng, colours, variant));
     let px = 1.0 / size as f32;
     let image = match surface {
-        "wood_floor" => planks(rng, variant, size),
-        "wood" => grain(rng, pick(&[0x8a5a36, 0xb98a5a, 0x5e3b24, 0xc9a27a, 0x6f4a2e], variant), size),
-        "frame" => grain(rng, pick(&[0x3b2a1e, 0x8a6a3a, 0xe8e2d6, 0x202020], variant), size),
+        "wood_floor" => planks(rng, base, size),
+        "wood" | "frame" => grain(rng, base, size),
         "tile_floor" => tiles(rng, variant, size, [3, 4, 5], 2.5 * px, &[0xd8d2c4, 0x8f9290, 0xe9e6df, 0x6b5a4a]),
         "tile_wall" => tiles(rng, variant, size, [6, 8, 10], 1.5 * px, &[0xf2f2ee, 0xa8c8d0, 0xdfe8e0, 0x3c5a78]),
-        "carpet" => fibres(rng, pick(&[0x7a7f86, 0xa89a80, 0x5a6a5a, 0x8a5050, 0x4a5a7a], variant), size),
-        "fabric" => weave(rng, variant, pick(&[0x6a7a8a, 0x8a6a5a, 0x4a5a4a, 0xb0a48c, 0x6e4e6e], variant), size),
-        "linen" => weave(rng, 0, pick(&[0xeeeae0, 0xdfe6ee, 0xe8dccc, 0xf4f4f4], variant), size),
-        "lampshade" => weave(rng, 0, pick(&[0xf0e6d0, 0xe8e8e0, 0xd8c8a8], variant), size),
-        "paint" => roller(rng, pick(&[0xece8e0, 0xdcd6c8, 0xc8d4d8, 0xd8dcc8, 0xe8d8d0, 0xf4f2ee], variant), size),
-        "ceiling" => stipple(rng, pick(&[0xf2f1ee, 0xeeeeea, 0xf6f4f0], variant), 0.03, size),
-        "wallpaper" => wallpaper(rng, variant, size),
-        "leather" => leather(rng, pick(&[0x4a2e20, 0x1e1a18, 0x7a4a2a, 0xa08060, 0x6a2020], variant), size),
-        "metal" => brushed(rng, pick(&[0xb8bcc0, 0x9a9ea4, 0xc8c4bc], variant), size),
+        "carpet" => fibres(rng, base, size),
+        "fabric" => weave(rng, variant, base, size),
+        "linen" | "lampshade" => weave(rng, 0, base, size),
+        "paint" => roller(rng, base, size),
+        "ceiling" => stipple(rng, base, 0.03, size),
+        "wallpaper" => wallpaper(rng, variant, base, size),
+        "leather" => leather(rng, base, size),
+        "metal" => brushed(rng, base, size),
         "gold" => brushed(rng, [0.97, 0.97, 0.97], size),
-        "plastic" => {
-            stipple(rng, pick(&[0xe8e8e8, 0x303234, 0xc83a32, 0x3a6ac8, 0xe8c830, 0x48a048], variant), 0.04, size)
-        }
-        "ceramic" => stipple(rng, pick(&[0xf6f6f4, 0xeef2f4, 0xf2ece4], variant), 0.02, size),
+        "plastic" => stipple(rng, base, 0.04, size),
+        "ceramic" => stipple(rng, base, 0.02, size),
         "glass" => stipple(rng, [0.96, 0.97, 0.98], 0.02, size),
-        "screen" => stipple(rng, pick(&[0x0c0d10, 0x101214, 0x08090c], variant), 0.15, size),
-        "pot" => pot(rng, pick(&[0xa85a3a, 0x3a4a5a, 0xe8e0d4, 0x5a6a4a, 0x2a2a2a], variant), size),
-        "soil" => soil(rng, pick(&[0x3a2a1e, 0x2e221a, 0x4a3626], variant), size),
-        "leaf" => leaf(rng, pick(&[0x3a6a2a, 0x2a5a2e, 0x4a7a30, 0x5a7a3a], variant), size),
+        "screen" => stipple(rng, base, 0.15, size),
+        "pot" => pot(rng, base, size),
+        "soil" => soil(rng, base, size),
+        "leaf" => leaf(rng, base, size),
         "rug" => rug(rng, variant, size),
         "picture" => picture(rng, variant, size),
         _ => return None,
@@ -304,8 +333,7 @@ fn pixels(surface: &str, variant: u32, size: usize) -> Option<Vec<u8>> {
 }
 
 /// Wood planks along u: rows of boards with dark seams, per-board tone and grain.
-fn planks(rng: &mut ChaCha8Rng, variant: u32, size: usize) -> Vec<u8> {
-    let base = pick(rng, &[0xa0703f, 0xc89a64, 0x6a4428, 0xd8b88c, 0x8a5a3a], variant);
+fn planks(rng: &mut ChaCha8Rng, base: Rgb, size: usize) -> Vec<u8> {
     let rows = [5usize, 6, 8][rng.random_range(0..3)];
     let boards = rng.random_range(1..=2usize);
     let offsets: Vec<f32> = (0..rows).map(|_| rng.random()).collect();
@@ -407,8 +435,7 @@ fn stipple(rng: &mut ChaCha8Rng, base: Rgb, depth: f32, size: usize) -> Vec<u8> 
 }
 
 /// Wallpaper: a subtle repeating motif (stripes, diamonds or dots) in a close tone.
-fn wallpaper(rng: &mut ChaCha8Rng, variant: u32, size: usize) -> Vec<u8> {
-    let base = pick(rng, &[0xe8e0d0, 0xd0d8e0, 0xe0d0c8, 0xd8e0d0, 0xf0ece4], variant);
+fn wallpaper(rng: &mut ChaCha8Rng, variant: u32, base: Rgb, size: usize) -> Vec<u8> {
     let motif = shade(base, rng.random_range(0.84..0.9));
     let repeats: f32 = [6.0_f32, 8.0, 10.0][rng.random_range(0..3)];
     let style = variant % 3;

@@ -8,8 +8,8 @@
 //! 1. **Occupancy grid** ([`OccupancyGrid`]): cells of [`TrajectoryParams::cell_m`] (0.1 m)
 //!    over the house plus a margin. A cell is blocked when its centre is closer than the agent
 //!    radius to a wall (less its door openings; windows have a sill, so a wall is solid at
-//!    floor level under a window) or to the footprint of an object or furnishing that reaches below
-//!    [`OBSTACLE_MAX_BOTTOM_M`]. Outside the house only an apron of [`APRON_M`] around each
+//!    floor level under a window), to an open door leaf, or to the footprint of an object or
+//!    furnishing that reaches below [`OBSTACLE_MAX_BOTTOM_M`]. Outside the house only an apron of [`APRON_M`] around each
 //!    exterior door is free, so the agent can step out and back in but never walks around
 //!    the house.
 //! 2. **Goals**: a depth-first walk over the door graph from the first room (lowest id): the
@@ -194,6 +194,13 @@ pub fn clearance_m(scene: &Scene, p: Vec2) -> f32 {
 
 fn clearance_with(scene: &Scene, walls: &[(Vec2, Vec2, f32)], p: Vec2) -> f32 {
     let w = walls.iter().map(|&piece| dist_to_piece(p, piece)).fold(f32::INFINITY, f32::min);
+    // A door leaf is a thin slab on the floor: a wall piece from its hinge to its free edge.
+    let leaves = scene
+        .doors
+        .iter()
+        .filter_map(|d| d.leaf)
+        .map(|l| dist_to_piece(p, (l.hinge, l.free_edge(), 0.5 * l.thickness_m)))
+        .fold(f32::INFINITY, f32::min);
     let o = scene
         .objects
         .iter()
@@ -202,7 +209,7 @@ fn clearance_with(scene: &Scene, walls: &[(Vec2, Vec2, f32)], p: Vec2) -> f32 {
         .filter(|(min, _)| min.z < OBSTACLE_MAX_BOTTOM_M)
         .map(|(min, max)| dist_to_rect(p, min.truncate(), max.truncate()))
         .fold(f32::INFINITY, f32::min);
-    w.min(o)
+    w.min(leaves).min(o)
 }
 
 fn in_any_room(scene: &Scene, p: Vec2) -> bool {

@@ -1,0 +1,272 @@
+//! Door leaves: every door's leaf stands open into one of its rooms.
+//!
+//! A leaf hangs on a vertical hinge at one jamb, just off the wall face of the room it opens
+//! into, and stands open at a seeded angle between 90 degrees (square to the wall) and as far
+//! as it can swing: the swing stops before the leaf or its handles would meet a wall, a piece
+//! of furniture, another door's clearance or another leaf. Open 90 degrees or more, a leaf
+//! narrows its doorway by half its thickness at most, so the doorway and its threshold stay
+//! passable: the agent walks through the middle of the doorway, and the
+//! [`trajectory`](crate::trajectory) keeps clear of leaves as it does of furniture.
+//!
+//! Leaves are hung after furniture placement (they fit around what is there) and before decor
+//! (pictures keep clear of them). All the doors of a house share one finish, as a real
+//! house's do.
+
+use glam::{Mat4, Vec2, Vec3};
+use rand::Rng;
+use rand_chacha::ChaCha8Rng;
+
+use crate::config::GeneratorConfig;
+use crate::floorplan::Floorplan;
+use crate::materials::{MaterialCatalog, VARIANTS};
+use crate::placement::{self, Rect};
+use crate::procedural::builder::MeshBuilder;
+use crate::scene::{Door, DoorLeaf, Geometry, Node, OpeningKind, Room, Semantic};
+
+/// Leaf thickness (interior doors are 35-44 mm).
+const THICKNESS_M: f32 = 0.04;
+/// Gap between the leaf's edge and each jamb, and below the head, when it is shut.
+const EDGE_GAP_M: f32 = 0.004;
+/// Gap between the hinge side of the leaf and the wall face.
+const HINGE_OFFSET_M: f32 = 0.003;
+/// How far the lever handles stand off each face; the swing test pads the leaf by this much.
+pub const HANDLE_REACH_M: f32 = 0.06;
+/// Length of the stretch of a leaf, back from its free edge, that its handles span.
+const HANDLE_SPAN_M: f32 = 0.18;
+/// Handle height above the floor (EN 1906 lever handles: 0.9-1.05 m; 1.0 m typical).
+const HANDLE_HEIGHT_M: f32 = 1.0;
+/// The widest a leaf opens; 180 degrees would press the handle into the wall.
+const MAX_OPEN_DEG: f32 = 175.0;
+/// Step of the swing test, degrees.
+const SWING_STEP_DEG: f32 = 5.0;
+/// Finishes a house's doors take, one per house.
+const FINISHES: [&str; 2] = ["wood", "paint"];
+
+/// Hangs a leaf in every door that has room for one and adds their meshes and nodes to
+/// `geometry`; `furniture` are the world boxes (min, max) of the placed objects and
+/// furnishings. Returns one entry per door, in door order.
+pub fn build(
+    config: &GeneratorConfig,
+    plan: &Floorplan,
+    furniture: &[(Vec3, Vec3)],
+    materials: &mut MaterialCatalog,
+    geometry: &mut Geometry,
+) -> Vec<Option<DoorLeaf>> {
+    let mut rng = scene_gen_core::rng::stream(config.seed, "door_leaves");
+    let finish = FINISHES[rng.random_range(0..FINISHES.len())];
+    let variant = rng.random_range(0..VARIANTS);
+    let furniture: Vec<Rect> =
+        furniture.iter().map(|(min, max)| Rect { min: min.truncate(), max: max.truncate() }).collect();
+    let mut leaves: Vec<Option<DoorLeaf>> = Vec::with_capacity(plan.doors.len());
+    for door in &plan.doors {
+        let hung: Vec<DoorLeaf> = leaves.iter().flatten().copied().collect();
+        let obstacles =
+            Obstacles { plan, furniture: &furniture, leaves: &hung, wall_thickness_m: config.wall_thickness_m };
+        let leaf = hang(door, &obstacles, &mut rng);
+        if let Some(leaf) = &leaf {
+            add_mesh(door, leaf, finish, variant, materials, geometry);
+        }
+        leaves.push(leaf);
+    }
+    leaves
+}
+
+/// What a leaf must keep clear of.
+struct Obstacles<'a> {
+    plan: &'a Floorplan,
+    furniture: &'a [Rect],
+    leaves: &'a [DoorLeaf],
+    wall_thickness_m: f32,
+}
+
+impl Obstacles<'_> {
+    /// Whether `leaf` and its handles stand inside its room, clear of everything.
+    fn admit(&self, door: &Door, room: &Room, leaf: &DoorLeaf) -> bool {
+        let (lo, hi) = room.interior(self.wall_thickness_m);
+        let clearances: Vec<Rect> = self
+            .plan
+            .doors
+            .iter()
+            .filter(|d| d.id != door.id)
+            .filter_map(|d| placement::door_clearance(d, room.id, self.wall_thickness_m))
+            .collect();
+        let hung: Vec<[Vec2; 4]> = self.leaves.iter().flat_map(solids).collect();
+        solids(leaf).iter().all(|solid| {
+            solid.iter().all(|p| p.cmpge(lo - 1e-4).all() && p.cmple(hi + 1e-4).all())
+                && !self.furniture.iter().chain(&clearances).any(|r| overlaps(solid, r))
+                && !hung.iter().any(|other| convex_overlap(solid, other))
+        })
+    }
+}
+
+/// The footprints of a leaf's slab and of the stretch near its free edge where the handles
+/// stand off both faces.
+fn solids(leaf: &DoorLeaf) -> [[Vec2; 4]; 2] {
+    let slab = leaf.footprint(0.0);
+    let across = leaf.direction.perp() * (0.5 * leaf.thickness_m + HANDLE_REACH_M);
+    let (a, b) = (leaf.hinge + leaf.direction * (leaf.width_m - HANDLE_SPAN_M), leaf.free_edge());
+    [slab, [a - across, b - across, b + across, a + across]]
+}
+
+/// The leaf of `door`: the first (room, hinge side) of a seeded order in which it can stand
+/// square to the wall, opened a seeded fraction of the way to where its swing stops.
+fn hang(door: &Door, obstacles: &Obstacles<'_>, rng: &mut ChaCha8Rng) -> Option<DoorLeaf> {
+    let first_room = rng.random_range(0..2usize);
+    let first_side = if rng.random_bool(0.5) { 1.0 } else { -1.0 };
+    let opening = rng.random::<f32>();
+    let rooms = [door.rooms[first_room], door.rooms[1 - first_room]];
+    for room_id in rooms.into_iter().flatten() {
+        let room = obstacles.plan.rooms.iter().find(|r| r.id == room_id)?;
+        for side in [first_side, -first_side] {
+            let at = |open_deg: f32| leaf_at(door, room_id, side, open_deg, obstacles.wall_thickness_m);
+            if !obstacles.admit(door, room, &at(90.0)) {
+                continue;
+            }
+            let mut widest = 90.0;
+            while widest + SWING_STEP_DEG <= MAX_OPEN_DEG && obstacles.admit(door, room, &at(widest + SWING_STEP_DEG)) {
+                widest += SWING_STEP_DEG;
+            }
+            // The swing was tested in steps: an angle between two steps may still graze a
+            // corner that pokes in between them, and then the leaf stops at the step before.
+            let open_deg = 90.0 + opening * (widest - 90.0);
+            let leaf = at(open_deg);
+            return Some(if obstacles.admit(door, room, &leaf) {
+                leaf
+            } else {
+                at(90.0 + ((open_deg - 90.0) / SWING_STEP_DEG).floor() * SWING_STEP_DEG)
+            });
+        }
+    }
+    None
+}
+
+/// The leaf of `door` opening into `room` with its hinge on the jamb at `side` (+1: the
+/// jamb along the wall's tangent, -1: the other), `open_deg` from shut.
+fn leaf_at(door: &Door, room: u32, side: f32, open_deg: f32, wall_thickness_m: f32) -> DoorLeaf {
+    let inward = if door.rooms[0] == Some(room) { -door.normal } else { door.normal };
+    let tangent = inward.perp();
+    let hinge = door.center.truncate()
+        + tangent * (side * 0.5 * door.width_m)
+        + inward * (0.5 * wall_thickness_m + HINGE_OFFSET_M + 0.5 * THICKNESS_M);
+    let (sin, cos) = open_deg.to_radians().sin_cos();
+    // Shut, the leaf runs from the hinge across the opening; it turns into the room.
+    let shut = -tangent * side;
+    DoorLeaf {
+        room,
+        hinge,
+        direction: (shut * cos + inward * sin).normalize(),
+        open_deg,
+        width_m: door.width_m - 2.0 * EDGE_GAP_M,
+        thickness_m: THICKNESS_M,
+        height_m: door.height_m - EDGE_GAP_M,
+    }
+}
+
+/// Adds the leaf's mesh (slab and a lever handle on each face) and its node.
+fn add_mesh(
+    door: &Door,
+    leaf: &DoorLeaf,
+    finish: &'static str,
+    variant: u32,
+    materials: &mut MaterialCatalog,
+    geometry: &mut Geometry,
+) {
+    // Leaf frame: x from the hinge to the free edge, y across, z up from the floor.
+    let mut b = MeshBuilder::default();
+    let (w, t) = (leaf.width_m, leaf.thickness_m);
+    let slab_h = leaf.height_m - DoorLeaf::UNDERCUT_M;
+    b.box_in(
+        finish,
+        Mat4::from_translation(Vec3::new(0.5 * w, 0.0, DoorLeaf::UNDERCUT_M + 0.5 * slab_h)),
+        Vec3::new(w, t, slab_h),
+    );
+    for face in [-1.0_f32, 1.0] {
+        let stem = Vec3::new(w - 0.06, face * (0.5 * t + 0.5 * HANDLE_REACH_M), HANDLE_HEIGHT_M);
+        b.box_in("metal", Mat4::from_translation(stem), Vec3::new(0.02, HANDLE_REACH_M, 0.02));
+        let lever = Vec3::new(w - 0.11, face * (0.5 * t + HANDLE_REACH_M - 0.01), HANDLE_HEIGHT_M);
+        b.box_in("metal", Mat4::from_translation(lever), Vec3::new(0.12, 0.02, 0.02));
+    }
+    let name = format!("door_leaf_{}", door.id);
+    let mesh = b.into_asset_mesh().to_mesh(&name, |surface| {
+        materials.material(geometry, surface, variant).expect("door finishes are known surfaces")
+    });
+    geometry.meshes.push(mesh);
+    let yaw = leaf.direction.y.atan2(leaf.direction.x);
+    geometry.nodes.push(Node {
+        name,
+        mesh: geometry.meshes.len() - 1,
+        transform: Mat4::from_translation(leaf.hinge.extend(0.0)) * Mat4::from_rotation_z(yaw),
+        semantic: Semantic::Opening { kind: OpeningKind::Door, id: door.id },
+    });
+}
+
+/// Whether a convex quadrilateral and a rectangle overlap (more than touching).
+fn overlaps(quad: &[Vec2; 4], rect: &Rect) -> bool {
+    let corners = [rect.min, Vec2::new(rect.max.x, rect.min.y), rect.max, Vec2::new(rect.min.x, rect.max.y)];
+    convex_overlap(quad, &corners)
+}
+
+/// Separating-axis test for two convex polygons (corners in order): they overlap unless the
+/// edge normal of one of them separates them.
+fn convex_overlap(a: &[Vec2], b: &[Vec2]) -> bool {
+    const EPS: f32 = 1e-4;
+    let separated_by = |poly: &[Vec2]| {
+        (0..poly.len()).any(|i| {
+            let axis = (poly[(i + 1) % poly.len()] - poly[i]).perp();
+            let project = |q: &[Vec2]| {
+                q.iter()
+                    .map(|p| p.dot(axis))
+                    .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), x| (lo.min(x), hi.max(x)))
+            };
+            let ((a0, a1), (b0, b1)) = (project(a), project(b));
+            let scale = axis.length().max(f32::MIN_POSITIVE);
+            a1 <= b0 + EPS * scale || b1 <= a0 + EPS * scale
+        })
+    };
+    !(separated_by(a) || separated_by(b))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn separating_axes_tell_touching_from_overlapping() {
+        let square = [Vec2::ZERO, Vec2::X, Vec2::ONE, Vec2::Y];
+        let shifted = square.map(|p| p + Vec2::new(0.5, 0.5));
+        let touching = square.map(|p| p + Vec2::X);
+        // A diamond whose corner pokes into the square's corner region only past a diagonal.
+        let diamond = [Vec2::new(1.5, 0.9), Vec2::new(2.1, 1.5), Vec2::new(1.5, 2.1), Vec2::new(0.9, 1.5)];
+        assert!(convex_overlap(&square, &shifted));
+        assert!(!convex_overlap(&square, &touching));
+        assert!(!convex_overlap(&square, &diamond), "separated by the diamond's edge normal");
+        assert!(convex_overlap(&square, &diamond.map(|p| p - Vec2::splat(0.3))));
+    }
+
+    #[test]
+    fn a_leaf_at_90_degrees_stands_square_to_the_wall_beside_its_jamb() {
+        let door = Door {
+            id: 0,
+            rooms: [Some(0), Some(1)],
+            wall: 0,
+            center: Vec3::new(2.0, 0.0, 1.0),
+            width_m: 0.9,
+            height_m: 2.0,
+            normal: Vec2::Y,
+            leaf: None,
+        };
+        // Into room 1 (the +Y side), hinged on the jamb at +X (side -1: the tangent is -X).
+        let leaf = leaf_at(&door, 1, -1.0, 90.0, 0.1);
+        assert!((leaf.direction - Vec2::Y).length() < 1e-6);
+        assert!((leaf.hinge.x - 2.45).abs() < 1e-6 && leaf.hinge.y > 0.05);
+        // The doorway loses at most half the leaf's thickness.
+        let narrowest = leaf.footprint(0.0).iter().map(|p| p.x).fold(f32::INFINITY, f32::min);
+        assert!(narrowest >= 2.45 - 0.5 * THICKNESS_M - 1e-6);
+        // At 180 degrees it lies back against the wall face, on the room's side.
+        let back = leaf_at(&door, 1, -1.0, 180.0, 0.1);
+        assert!((back.direction - Vec2::X).length() < 1e-6);
+        assert!(back.footprint(0.0).iter().all(|p| p.y >= 0.05));
+        // Into room 0 the leaf turns the other way.
+        assert!((leaf_at(&door, 0, 1.0, 90.0, 0.1).direction + Vec2::Y).length() < 1e-6);
+    }
+}
