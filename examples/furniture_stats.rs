@@ -1,6 +1,7 @@
 //! Furniture variety and density over many seeds: distinct shapes per class and furnishing
 //! kind, objects and furnishings per room and per square metre by room type, triangles per
-//! piece, and the time per house.
+//! piece, door leaves and curtains, the houses drawn per colour palette, and the time per
+//! house.
 //!
 //! ```text
 //! cargo run --release --example furniture_stats -- [SEEDS=100] [--furniture DIR]
@@ -74,6 +75,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut classes: BTreeMap<Kind, ClassStats> = BTreeMap::new();
     let mut rooms: BTreeMap<String, RoomStats> = BTreeMap::new();
     let (mut plan_ms, mut house_ms) = (Vec::new(), Vec::new());
+    let mut open_deg: Vec<f64> = Vec::new();
+    let (mut doors, mut windows, mut curtains) = (0, 0, 0);
+    let mut palettes: BTreeMap<&str, usize> = BTreeMap::new();
     for seed in 0..seeds {
         let config = GeneratorConfig { seed, ..GeneratorConfig::default() };
         let start = Instant::now();
@@ -83,6 +87,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let scene = generate(&config, &library)?;
         house_ms.push(start.elapsed().as_secs_f64() * 1e3);
 
+        doors += scene.doors.len();
+        open_deg.extend(scene.doors.iter().filter_map(|d| d.leaf).map(|l| f64::from(l.open_deg)));
+        windows += scene.windows.len();
+        curtains += scene.geometry.nodes.iter().filter(|n| n.name.starts_with("curtains_")).count();
+        *palettes.entry(scene.palette.map_or("none", |p| p.name)).or_default() += 1;
         for room in &scene.rooms {
             let (lo, hi) = room.interior(scene.wall_thickness_m);
             let entry = rooms.entry(room.room_type.clone()).or_default();
@@ -147,6 +156,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         all.furnishings as f64 / seeds as f64
     );
     let (plan, house) = (median(plan_ms), median(house_ms));
+    let leaves = open_deg.len();
+    println!(
+        "\ndoors: {leaves} of {doors} have a leaf, open {:.0} degrees median (range {:.0} to {:.0}); \
+         windows: {curtains} of {windows} curtained",
+        if leaves > 0 { median(open_deg.clone()) } else { f64::NAN },
+        open_deg.iter().copied().fold(f64::INFINITY, f64::min),
+        open_deg.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+    );
+    let drawn: Vec<String> = palettes.iter().map(|(name, n)| format!("{name} {n}")).collect();
+    println!("palettes: {}\n", drawn.join(", "));
     println!("median per house: floorplan {plan:.2} ms, whole house {house:.1} ms (the rest: {:.1} ms)", house - plan);
     Ok(())
 }

@@ -10,7 +10,8 @@ Imports the GLB (glTF node extras become custom properties: `class`, `class_id`,
 camera 0.8 m above the floor at the centre of the first room of the manifest (scene.json beside
 the GLB, or --manifest FILE) looking level at that room's first door, and renders with Cycles on
 the CPU at low samples (--samples, default 16; --size WxH, default 640x480) so it takes about a
-minute.
+minute. `--pose-out FILE` writes the view's pose for `scene-gen render --poses FILE`, so both
+renderers can show the same view (scripts/first_views does that for several seeds).
 
 Lights come from the GLB (KHR_lights_punctual, imported in physical units); `--lighting day`
 (default) or `night` keeps only that group (the `group` custom property from the light's node
@@ -46,6 +47,7 @@ def parse(argv):
     p.add_argument("--size", default="640x480")
     p.add_argument("--lighting", choices=["day", "night", "both"], default="day")
     p.add_argument("--exposure", type=float, help="film exposure in stops (default 7 by day, 10 by night)")
+    p.add_argument("--pose-out", help="also write the view's pose as a one-row CSV that `scene-gen render --poses` reads")
     return p.parse_args(argv)
 
 
@@ -113,6 +115,10 @@ def main(argv):
     scene.render.filepath = os.path.abspath(args.png)
     bpy.ops.render.render(write_still=True)
     heading = math.degrees(math.atan2(target.y - eye.y, target.x - eye.x))
+    if args.pose_out:
+        with open(args.pose_out, "w", encoding="utf-8") as f:
+            f.write("x,y,z,yaw_deg,pitch_deg\n")
+            f.write(f"{eye.x:.4f},{eye.y:.4f},{eye.z:.4f},{heading:.3f},0\n")
     print(f"render_first_view: {args.png} ({width}x{height}, {args.samples} spp, {len(lit)} {args.lighting} lights, "
           f"exposure {scene.view_settings.exposure:+.1f}), eye {tuple(round(v, 3) for v in eye)}, "
           f"heading {heading:.1f} deg from +X")
