@@ -1,7 +1,7 @@
 //! Furniture variety and density over many seeds: distinct shapes per class and furnishing
 //! kind, objects and furnishings per room and per square metre by room type, triangles per
-//! piece, door leaves and curtains, the houses drawn per colour palette, and the time per
-//! house.
+//! piece, door leaves, curtains and small things on tables, the houses drawn per colour
+//! palette, and the time per house.
 //!
 //! ```text
 //! cargo run --release --example furniture_stats -- [SEEDS=100] [--furniture DIR]
@@ -77,6 +77,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let (mut plan_ms, mut house_ms) = (Vec::new(), Vec::new());
     let mut open_deg: Vec<f64> = Vec::new();
     let (mut doors, mut windows, mut curtains) = (0, 0, 0);
+    let (mut tables, mut tables_with_things) = (0, 0);
     let mut palettes: BTreeMap<&str, usize> = BTreeMap::new();
     for seed in 0..seeds {
         let config = GeneratorConfig { seed, ..GeneratorConfig::default() };
@@ -91,6 +92,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         open_deg.extend(scene.doors.iter().filter_map(|d| d.leaf).map(|l| f64::from(l.open_deg)));
         windows += scene.windows.len();
         curtains += scene.geometry.nodes.iter().filter(|n| n.name.starts_with("curtains_")).count();
+        tables += scene.objects.iter().filter(|o| o.class == scene_gen::scene::ObjectClass::Table).count();
+        tables_with_things += scene.geometry.nodes.iter().filter(|n| n.name.starts_with("table_things_")).count();
         *palettes.entry(scene.palette.map_or("none", |p| p.name)).or_default() += 1;
         for room in &scene.rooms {
             let (lo, hi) = room.interior(scene.wall_thickness_m);
@@ -165,7 +168,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         open_deg.iter().copied().fold(f64::NEG_INFINITY, f64::max),
     );
     let drawn: Vec<String> = palettes.iter().map(|(name, n)| format!("{name} {n}")).collect();
-    println!("palettes: {}\n", drawn.join(", "));
+    println!("palettes: {}", drawn.join(", "));
+    println!("tables: {tables_with_things} of {tables} carry small things\n");
     println!("median per house: floorplan {plan:.2} ms, whole house {house:.1} ms (the rest: {:.1} ms)", house - plan);
     Ok(())
 }

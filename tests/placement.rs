@@ -582,7 +582,7 @@ fn generate_places_furniture_by_the_rules() {
     let lib = library();
     let mut classes = BTreeSet::new();
     let mut kinds = BTreeSet::new();
-    let (mut doors, mut leaves, mut curtains) = (0, 0, 0);
+    let (mut doors, mut leaves, mut curtains, mut tables_with_things) = (0, 0, 0, 0);
     let envelopes = [(15.0, 15.0, 3.0), (20.0, 10.0, 2.8), (10.0, 10.0, 3.0)];
     for (seed, (width_m, depth_m, height_m)) in (0..500_u64).flat_map(|s| envelopes.map(|e| (s, e))) {
         let envelope = scene_gen::scene::Envelope { width_m, depth_m, height_m };
@@ -605,10 +605,13 @@ fn generate_places_furniture_by_the_rules() {
             panic!("seed {seed}: {e}");
         }
         assert!(!scene.objects.is_empty(), "seed {seed}: no furniture");
-        if let Err(e) = check_leaves(&scene).and_then(|()| check_curtains(&scene)) {
+        if let Err(e) =
+            check_leaves(&scene).and_then(|()| check_curtains(&scene)).and_then(|()| check_table_things(&scene))
+        {
             panic!("seed {seed}, envelope {width_m} x {depth_m}: {e}");
         }
         curtains += scene.geometry.nodes.iter().filter(|n| n.name.starts_with("curtains_")).count();
+        tables_with_things += scene.geometry.nodes.iter().filter(|n| n.name.starts_with("table_things_")).count();
         doors += scene.doors.len();
         leaves += scene.doors.iter().filter(|d| d.leaf.is_some()).count();
         classes.extend(scene.objects.iter().map(|o| o.class));
@@ -618,6 +621,7 @@ fn generate_places_furniture_by_the_rules() {
     assert_eq!(kinds.len(), FurnishingKind::ALL.len(), "furnishings seen: {kinds:?}");
     assert!(leaves * 100 >= doors * 95, "only {leaves} of {doors} doors have a leaf");
     assert!(curtains > 1000, "{curtains} curtained windows in 1500 houses");
+    assert!(tables_with_things > 1000, "small things on {tables_with_things} tables in 1500 houses");
 }
 
 /// Every curtain hangs inside its room, and each of its boxes (pleats, rod) is clear of every
@@ -646,6 +650,68 @@ fn check_curtains(scene: &scene_gen::scene::Scene) -> Result<(), String> {
         }
     }
     Ok(())
+}
+
+/// The small things on a table stand on its top, inside its footprint, and clear of every
+/// object (what stands on the table included).
+fn check_table_things(scene: &scene_gen::scene::Scene) -> Result<(), String> {
+    for node in scene.geometry.nodes.iter().filter(|n| n.name.starts_with("table_things_")) {
+        let points: Vec<Vec3> = scene.geometry.meshes[node.mesh]
+            .primitives
+            .iter()
+            .flat_map(|p| &p.positions)
+            .map(|&p| node.transform.transform_point3(p))
+            .collect();
+        let (lo, hi) = points.iter().fold((Vec3::MAX, Vec3::MIN), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
+        let table = scene.objects.iter().find(|t| {
+            t.class == ObjectClass::Table
+                && lo.truncate().cmpge(t.min.truncate() - 1e-3).all()
+                && hi.truncate().cmple(t.max.truncate() + 1e-3).all()
+                && (lo.z - t.max.z).abs() < 0.02
+        });
+        let Some(table) = table else { return Err(format!("{}: {lo} .. {hi} stands on no table top", node.name)) };
+        for o in scene.objects.iter().filter(|o| o.id != table.id) {
+            if points.iter().any(|p| p.cmpgt(o.min + 1e-3).all() && p.cmplt(o.max - 1e-3).all()) {
+                return Err(format!(
+                    "{}: a small thing on table {} is inside {} {}",
+                    node.name,
+                    table.id,
+                    o.class.name(),
+                    o.id
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+#[test]
+fn televisions_face_a_sofa_across_the_room() {
+    let lib = library();
+    let (mut tvs, mut facing) = (0, 0);
+    for seed in 0..300 {
+        let scene = generate(&GeneratorConfig { seed, ..GeneratorConfig::default() }, &lib).unwrap();
+        for tv in scene.objects.iter().filter(|o| o.asset.starts_with("computer/computer_tv")) {
+            let sofas: Vec<&Object> =
+                scene.objects.iter().filter(|o| o.room == tv.room && o.class == ObjectClass::Sofa).collect();
+            if sofas.is_empty() {
+                continue;
+            }
+            tvs += 1;
+            let yaw = tv.yaw_deg.to_radians();
+            let front = Vec2::new(-yaw.sin(), yaw.cos());
+            let centre = |o: &Object| ((o.min + o.max) * 0.5).truncate();
+            let faces = sofas.iter().any(|s| {
+                let to_sofa = centre(s) - centre(tv);
+                ((s.yaw_deg - tv.yaw_deg).rem_euclid(360.0) - 180.0).abs() < 1.0
+                    && to_sofa.dot(front) > 0.9 * to_sofa.length()
+            });
+            facing += usize::from(faces);
+        }
+    }
+    assert!(tvs >= 30, "only {tvs} televisions in rooms with a sofa");
+    assert!(facing * 10 >= tvs * 8, "{facing} of {tvs} televisions face a sofa");
+    println!("{facing} of {tvs} televisions in a room with a sofa face one");
 }
 
 #[test]

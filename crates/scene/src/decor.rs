@@ -1,8 +1,11 @@
-//! Unlabelled decoration: rugs on floors, curtains at windows and pictures on walls.
+//! Unlabelled decoration: small things on tables, rugs on floors, curtains at windows and
+//! pictures on walls.
 //!
 //! Decor carries no class label, but it carries texture: it is what gives ORB features and
 //! detectors the clutter of a lived-in room. Pictures hang on the inner faces of walls, clear of
 //! openings and of tall furniture; rugs lie flat near a room's centre and never reach a door.
+//! Tables carry up to four small things (cups, bowls, bottles, books, a kettle) around whatever
+//! object stands on them, each clear of the others and of the table's edge.
 //! Curtains hang in pleats from a rod above a window, one panel each side, to the floor where
 //! the floor beside the window is free, else to just below the sill, else to the sill; a panel
 //! that would still meet furniture, a door leaf or another opening is left out.
@@ -14,7 +17,9 @@ use rand::seq::IndexedRandom;
 use crate::config::GeneratorConfig;
 use crate::floorplan::Floorplan;
 use crate::materials::MaterialCatalog;
+use crate::placement::{Rect, TableTop};
 use crate::procedural::builder::MeshBuilder;
+use crate::procedural::{SMALL_THING_REACH_M, small_thing};
 use crate::scene::{Geometry, Mesh, Node, OpeningKind, Primitive, Room, Semantic, Wall, Window};
 
 /// Height of a picture's centre above the floor (eye level, gallery convention ~1.45 m).
@@ -29,6 +34,8 @@ const RUG_HEIGHT_M: f32 = 0.01;
 const RUG_WALL_MARGIN_M: f32 = 1.0;
 /// Number of texture variants drawn for decor surfaces.
 const VARIANTS: u32 = 8;
+/// Most small things standing on one table.
+const MAX_TABLE_THINGS: u32 = 4;
 /// Chance that a room's windows have curtains.
 const CURTAINED_ROOM_CHANCE: f64 = 0.75;
 /// Curtain rod: above the window head, and out from the wall face.
@@ -40,16 +47,24 @@ const CLOTH_M: f32 = 0.008;
 /// How far a drawn-back panel reaches over the window's edge.
 const PANEL_OVERLAP_M: f32 = 0.08;
 
-/// Adds rugs, curtains and pictures to `geometry`; curtains and pictures keep clear of
-/// `furniture`, the world boxes (min, max) of the placed objects, furnishings and door leaves.
+/// Adds small things on `table_tops`, rugs, curtains and pictures to `geometry`; curtains and
+/// pictures keep clear of `furniture`, the world boxes (min, max) of the placed objects,
+/// furnishings and door leaves, and of the things on tables.
 pub fn build(
     config: &GeneratorConfig,
     plan: &Floorplan,
     furniture: &[(Vec3, Vec3)],
+    table_tops: &[TableTop],
     materials: &mut MaterialCatalog,
     geometry: &mut Geometry,
 ) {
     let mut furniture = furniture.to_vec();
+    let mut things_rng = scene_gen_core::rng::stream(config.seed, "table_things");
+    for (i, top) in table_tops.iter().enumerate() {
+        if let Some(bounds) = add_table_things(i, top, &mut things_rng, materials, geometry) {
+            furniture.push(bounds);
+        }
+    }
     // Curtains draw from their own stream, so rugs and pictures keep their draws.
     let mut curtain_rng = scene_gen_core::rng::stream(config.seed, "curtains");
     for room in &plan.rooms {
@@ -245,6 +260,51 @@ fn pleated_panel(b: &mut MeshBuilder, x: (f32, f32), bottom: f32, top: f32) {
         let frame = Mat4::from_translation(centre) * Mat4::from_rotation_z(sign * slant);
         b.box_in("fabric", frame, Vec3::new(length, CLOTH_M, top - bottom));
     }
+}
+
+/// Stands up to [`MAX_TABLE_THINGS`] small things on `top`, clear of what stands on it, as one
+/// decor node; returns their world box, or `None` when none found room.
+fn add_table_things(
+    index: usize,
+    top: &TableTop,
+    rng: &mut rand_chacha::ChaCha8Rng,
+    materials: &mut MaterialCatalog,
+    geometry: &mut Geometry,
+) -> Option<(Vec3, Vec3)> {
+    let wanted = rng.random_range(0..=MAX_TABLE_THINGS);
+    let variant = rng.random_range(0..VARIANTS);
+    let reach = Vec2::splat(SMALL_THING_REACH_M);
+    let (lo, hi) = (top.rect.min + reach, top.rect.max - reach);
+    if wanted == 0 || lo.cmpge(hi).any() {
+        return None;
+    }
+    let mut taken: Vec<Rect> = top.occupied.clone();
+    let mut b = MeshBuilder::default();
+    for _ in 0..wanted {
+        let spot = (0..6)
+            .map(|_| Vec2::new(rng.random_range(lo.x..hi.x), rng.random_range(lo.y..hi.y)))
+            .find(|&c| !taken.iter().any(|r| r.overlaps(&Rect { min: c - reach, max: c + reach }, 0.01)));
+        if let Some(c) = spot {
+            small_thing(&mut b, c, top.z_m, rng);
+            taken.push(Rect { min: c - reach, max: c + reach });
+        }
+    }
+    if b.parts.is_empty() {
+        return None;
+    }
+    let (min, max) = b.bounds();
+    let name = format!("table_things_{index}");
+    let mesh = b.into_asset_mesh().to_mesh(&name, |surface| {
+        materials.material(geometry, surface, variant).expect("small things use known surfaces")
+    });
+    geometry.meshes.push(mesh);
+    geometry.nodes.push(Node {
+        name,
+        mesh: geometry.meshes.len() - 1,
+        transform: Mat4::IDENTITY,
+        semantic: Semantic::Decor { room: top.room },
+    });
+    Some((min, max))
 }
 
 /// An offset along the wall for an item of `width`, clear of wall ends and openings.

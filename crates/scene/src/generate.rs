@@ -2,7 +2,7 @@
 //!
 //! Stages run in a fixed order, each drawing from its own seeded stream (see [`scene_gen_core::rng`]):
 //! floorplan, structure (floors, ceilings, walls, windows, thresholds), furniture placement,
-//! door leaves, decor (rugs, pictures), lights.
+//! door leaves, decor (small things on tables, rugs, curtains, pictures), lights.
 
 use crate::config::{ConfigError, GeneratorConfig};
 use crate::floorplan::{self, FloorplanError};
@@ -34,8 +34,15 @@ pub fn generate(config: &GeneratorConfig, library: &Library) -> Result<Scene, Ge
     let mut plan = floorplan::generate(config, &library.rooms)?;
     let thresholds = structure::build(config, &plan, &library.rooms, &mut materials, &mut geometry)?;
     let first_object_instance = thresholds.iter().map(|t| t.instance_id).max().unwrap_or(0) + 1;
-    let (objects, furnishings) =
-        placement::place(config, &plan, &thresholds, library, first_object_instance, &mut materials, &mut geometry)?;
+    let placement::Placement { objects, furnishings, table_tops, .. } = placement::place_detailed(
+        config,
+        &plan,
+        &thresholds,
+        library,
+        first_object_instance,
+        &mut materials,
+        &mut geometry,
+    )?;
     let mut furniture: Vec<_> =
         objects.iter().map(|o| (o.min, o.max)).chain(furnishings.iter().map(|f| (f.min, f.max))).collect();
     let leaves = doors::build(config, &plan, &furniture, &mut materials, &mut geometry);
@@ -44,7 +51,7 @@ pub fn generate(config: &GeneratorConfig, library: &Library) -> Result<Scene, Ge
     }
     // Pictures keep clear of leaves as of furniture.
     furniture.extend(plan.doors.iter().filter_map(|d| d.leaf).map(|leaf| leaf_bounds(&leaf)));
-    decor::build(config, &plan, &furniture, &mut materials, &mut geometry);
+    decor::build(config, &plan, &furniture, &table_tops, &mut materials, &mut geometry);
     let lights = lights::build(config, &plan, &objects);
     log::info!(
         "house {}: {} rooms, {} doors, {} objects, {} furnishings, {} mesh triangles in {:.0} ms",

@@ -40,7 +40,7 @@ use crate::floorplan::Floorplan;
 use crate::library::Library;
 use crate::library::furniture::{FurnitureVariant, Place, Rule};
 use crate::materials::MaterialCatalog;
-use crate::scene::{Door, Furnishing, Geometry, Kind, Node, Object, Room, Semantic, Threshold};
+use crate::scene::{Door, Furnishing, Geometry, Kind, Node, Object, ObjectClass, Room, Semantic, Threshold};
 use scene_gen_core::rng;
 
 /// Free width kept beside a door on each side, beyond its own width.
@@ -140,6 +140,18 @@ pub struct Placement {
     pub furnishings_placed_by: Vec<PlacedBy>,
     /// Requests that did not fit: (room id, class), in the order they were tried.
     pub skipped: Vec<(u32, Kind)>,
+    /// The tops of the tables, where small things may stand around what stands on them.
+    pub table_tops: Vec<TableTop>,
+}
+
+/// The top of a placed table: its height, its rectangle and the footprints of the objects
+/// standing on it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TableTop {
+    pub room: u32,
+    pub z_m: f32,
+    pub rect: Rect,
+    pub occupied: Vec<Rect>,
 }
 
 /// Places furniture in every room: the objects (instance ids from `first_instance_id`) and
@@ -183,6 +195,7 @@ pub fn place_detailed(
         let walk = WalkGrid::new(plan, room, interior, config.wall_thickness_m);
         let mut ctx = RoomContext { room: room.id, interior, zones, first: placed.len(), walk };
 
+        let weight_here = |v: &FurnitureVariant| v.weight_in(&room.room_type);
         // Expand the requests, draw a variant per item, then place supports before what stands
         // on or beside them, biggest floor pieces first.
         let mut items: Vec<(Kind, &FurnitureVariant, bool)> = Vec::new();
@@ -195,8 +208,7 @@ pub fn place_detailed(
             };
             let count = rng.random_range(request.min..=request.max);
             for _ in 0..count {
-                let index =
-                    crate::library::furniture::weighted_index(&mut rng, class.variants.iter().map(|v| v.weight));
+                let index = crate::library::furniture::weighted_index(&mut rng, class.variants.iter().map(weight_here));
                 items.push((class.class, &class.variants[index], class.uniform_scale));
             }
         }
@@ -212,7 +224,9 @@ pub fn place_detailed(
             v.size.width_m.map_or(s.x * h, |w| w[1]) * v.size.depth_m.map_or(s.y * h, |d| d[1])
         };
         // Within a stage objects go before furnishings, so furnishing a room fills the space
-        // its objects leave and never pushes an object out.
+        // its objects leave and never pushes an object out. Pieces that face an anchor (a TV
+        // before a sofa) stay with the floor pieces: their anchors are larger, so they come
+        // first, and the wall opposite is still free more often than not.
         let furnishing = |k: Kind| matches!(k, Kind::Furnishing(_));
         items.sort_by(|a, b| {
             stage(a.1)
@@ -229,10 +243,10 @@ pub fn place_detailed(
             if !variant.rule.on.is_empty() && !has_support(variant) {
                 let entry = library.furniture_class(class).expect("checked above");
                 let floor: Vec<&FurnitureVariant> =
-                    entry.variants.iter().filter(|v| v.rule.on.is_empty() && v.weight > 0.0).collect();
+                    entry.variants.iter().filter(|v| v.rule.on.is_empty() && weight_here(v) > 0.0).collect();
                 if !floor.is_empty() {
-                    variant =
-                        floor[crate::library::furniture::weighted_index(&mut rng, floor.iter().map(|v| v.weight))];
+                    variant = floor
+                        [crate::library::furniture::weighted_index(&mut rng, floor.iter().copied().map(weight_here))];
                 }
             }
             let (shape, scale) = instantiate(&mut rng, variant, uniform);
@@ -243,7 +257,7 @@ pub fn place_detailed(
                 // did not fit).
                 let entry = library.furniture_class(class).expect("checked above");
                 let other = &entry.variants
-                    [crate::library::furniture::weighted_index(&mut rng, entry.variants.iter().map(|v| v.weight))];
+                    [crate::library::furniture::weighted_index(&mut rng, entry.variants.iter().map(weight_here))];
                 if !std::ptr::eq(other, variant) {
                     let (shape, scale) = instantiate(&mut rng, other, uniform);
                     result = place_one(&mut rng, &ctx, &placed, class, shape, scale);
@@ -262,6 +276,7 @@ pub fn place_detailed(
     }
     let mut placement = build_geometry(&placed, first_instance_id, materials, geometry)?;
     placement.skipped = skipped;
+    placement.table_tops = table_tops(&placed);
     Ok(placement)
 }
 
@@ -485,6 +500,7 @@ fn instantiate(rng: &mut ChaCha8Rng, variant: &FurnitureVariant, uniform: bool) 
     let shape = FurnitureVariant {
         name: format!("{}-{shape_seed:016x}", variant.name),
         weight: variant.weight,
+        rooms: variant.rooms.clone(),
         size: variant.size,
         rule: variant.rule.clone(),
         support_top: mesh.support_top(),
@@ -568,7 +584,7 @@ fn place_one(
     scale: Vec3,
 ) -> Option<Placed> {
     let rule = variant.rule.clone();
-    let Rule { on, flank, beside, place } = &rule;
+    let Rule { on, flank, face, beside, place } = &rule;
     let base = Placed {
         class,
         room: ctx.room,
@@ -638,6 +654,35 @@ fn place_one(
             .extend(0.0);
             let c =
                 Placed { yaw_deg: yaw, translation: t, min: lo + t, max: hi + t, by: PlacedBy::Beside, ..base.clone() };
+            if fits_on_floor(ctx, room_objects, &c) {
+                return Some(c);
+            }
+        }
+    }
+    // Facing: against the wall an anchor faces, across the room, turned towards it.
+    let faced =
+        ids(&|p| p.on.is_none() && face.contains(&p.class) && matches!(p.by, PlacedBy::Wall | PlacedBy::Corner));
+    if !faced.is_empty() {
+        for attempt in 0..TRIES {
+            let anchor = &placed[faced[rng.random_range(0..faced.len())]];
+            let yaw = (anchor.yaw_deg + 180.0).rem_euclid(360.0);
+            let (lo, hi) = local_bounds(&base.variant, scale, yaw);
+            let (a, r) = (anchor.footprint(), ctx.interior);
+            // Centred on the anchor across the room, give or take a little more with each try.
+            let slack = 0.3 + attempt as f32 * 0.05;
+            let centre =
+                (a.min + a.max) * 0.5 - ((lo + hi) * 0.5).truncate() + Vec2::splat(rng.random_range(-slack..=slack));
+            // The anchor's back is on the wall its yaw names (0: south, 90: east, ...): this
+            // one's back goes on the opposite wall.
+            let t = match (anchor.yaw_deg.round() as i32).rem_euclid(360) {
+                0 => Vec2::new(centre.x, r.max.y - WALL_GAP_M - hi.y),
+                90 => Vec2::new(r.min.x + WALL_GAP_M - lo.x, centre.y),
+                180 => Vec2::new(centre.x, r.min.y + WALL_GAP_M - lo.y),
+                _ => Vec2::new(r.max.x - WALL_GAP_M - hi.x, centre.y),
+            }
+            .extend(0.0);
+            let c =
+                Placed { yaw_deg: yaw, translation: t, min: lo + t, max: hi + t, by: PlacedBy::Wall, ..base.clone() };
             if fits_on_floor(ctx, room_objects, &c) {
                 return Some(c);
             }
@@ -735,6 +780,22 @@ fn fits_on_floor(ctx: &RoomContext, room_objects: &[Placed], c: &Placed) -> bool
         && !ctx.zones.iter().any(|z| c.max.z > z.above_m && z.rect.overlaps(&fp, 0.0))
         && !room_objects.iter().any(|p| p.on.is_none() && p.footprint().overlaps(&fp, MIN_GAP_M))
         && ctx.walk.as_ref().is_none_or(|w| w.allows(&fp))
+}
+
+/// The tops of the floor-standing tables turned a multiple of 90 degrees (the top's rectangle
+/// is then exactly its world box), with what stands on each.
+fn table_tops(placed: &[Placed]) -> Vec<TableTop> {
+    placed
+        .iter()
+        .enumerate()
+        .filter(|(_, p)| p.class == Kind::Object(ObjectClass::Table) && p.on.is_none())
+        .filter(|(_, p)| (p.yaw_deg / 90.0 - (p.yaw_deg / 90.0).round()).abs() < 1e-4)
+        .filter_map(|(i, p)| {
+            let (z_m, rect) = p.support_top()?;
+            let occupied = placed.iter().filter(|q| q.on == Some(i)).map(Placed::footprint).collect();
+            Some(TableTop { room: p.room, z_m, rect, occupied })
+        })
+        .collect()
 }
 
 /// Adds meshes (one per asset and colour variant, shared by instances), nodes and manifest

@@ -7,6 +7,8 @@
 //! beside = ["table"]                  # optional: first try next to one of these classes, facing it
 //! flank = ["bed"]                     # optional: first try beside one of these along its wall,
 //!                                     #   facing the same way (a nightstand by a bed)
+//! face = ["sofa"]                     # optional: first try against the wall one of these faces,
+//!                                     #   across the room, turned towards it (a TV before a sofa)
 //! on = ["table", "bed"]               # optional: first try standing on one of these
 //! width_m = [1.5, 2.3]                # drawn size (x of the asset), inclusive range
 //! depth_m = [0.8, 1.0]                # drawn size (y of the asset)
@@ -20,13 +22,15 @@
 //! generator = "sofa"                  # a shape of its own per object (crate::procedural), or
 //! # obj = "sofa_2seat"                # one mesh for all: furniture/sofa/sofa_2seat.obj (+ .mtl)
 //! weight = 2.0                        # optional relative chance, default 1
+//! rooms = ["living_room"]             # optional: only in these of the class's room types
 //! width_m = [1.4, 1.8]                # optional per-variant overrides of the size ranges,
-//! place = "corner"                    #   of place, beside and on
+//! place = "corner"                    #   of place, beside, face and on
 //! ```
 //!
 //! Placement tries, in order: standing `on` a support of a listed class in the same room,
-//! then flanking (`flank`) and then `beside` an object of a listed class, then the `place`
-//! rule; an object that fits nowhere is skipped.
+//! then flanking (`flank`), facing (`face`) and then `beside` an object of a listed class,
+//! then the `place` rule; an object that fits nowhere is skipped. `flank` and `face` take
+//! anchors that stand against a wall.
 //!
 //! Class folders are the ten object classes or the furnishings (`wardrobe`, `bookshelf`,
 //! `nightstand`, `counter`, `fridge`, `stove`, `toilet`: furniture that is not a detection target).
@@ -77,6 +81,8 @@ pub struct Rule {
     pub on: Vec<Kind>,
     /// Beside one of these along the same wall, facing the same way (a nightstand by a bed).
     pub flank: Vec<Kind>,
+    /// Against the wall one of these faces, turned towards it (a TV before a sofa).
+    pub face: Vec<Kind>,
     pub beside: Vec<Kind>,
     pub place: Place,
 }
@@ -96,6 +102,8 @@ pub struct FurnitureVariant {
     /// The OBJ stem; the asset name is `<class>/<name>`.
     pub name: String,
     pub weight: f32,
+    /// The room types this variant is drawn in; `None`: every room type of its class.
+    pub rooms: Option<Vec<String>>,
     pub size: SizeRange,
     pub rule: Rule,
     pub mesh: AssetMesh,
@@ -131,6 +139,8 @@ struct ClassFile {
     #[serde(default)]
     flank: Option<Spanned<Vec<String>>>,
     #[serde(default)]
+    face: Option<Spanned<Vec<String>>>,
+    #[serde(default)]
     on: Option<Spanned<Vec<String>>>,
     width_m: Option<Spanned<[f32; 2]>>,
     depth_m: Option<Spanned<[f32; 2]>>,
@@ -155,7 +165,9 @@ struct VariantEntry {
     depth_m: Option<Spanned<[f32; 2]>>,
     height_m: Option<Spanned<[f32; 2]>>,
     place: Option<Spanned<Place>>,
+    rooms: Option<Spanned<Vec<String>>>,
     beside: Option<Spanned<Vec<String>>>,
+    face: Option<Spanned<Vec<String>>>,
     on: Option<Spanned<Vec<String>>>,
 }
 
@@ -243,6 +255,7 @@ fn parse_class(file: &LibraryFile, all: &[LibraryFile]) -> Result<FurnitureClass
     let class_on = raw.on.as_ref().map(classes_of).transpose()?.unwrap_or_default();
     let class_beside = raw.beside.as_ref().map(classes_of).transpose()?.unwrap_or_default();
     let class_flank = raw.flank.as_ref().map(classes_of).transpose()?.unwrap_or_default();
+    let class_face = raw.face.as_ref().map(classes_of).transpose()?.unwrap_or_default();
     let class_size =
         [range(&raw.width_m, "width_m")?, range(&raw.depth_m, "depth_m")?, range(&raw.height_m, "height_m")?];
     if raw.variant.is_empty() {
@@ -306,6 +319,7 @@ fn parse_class(file: &LibraryFile, all: &[LibraryFile]) -> Result<FurnitureClass
         let rule = Rule {
             on: v.on.as_ref().map(classes_of).transpose()?.unwrap_or_else(|| class_on.clone()),
             flank: class_flank.clone(),
+            face: v.face.as_ref().map(classes_of).transpose()?.unwrap_or_else(|| class_face.clone()),
             beside: v.beside.as_ref().map(classes_of).transpose()?.unwrap_or_else(|| class_beside.clone()),
             place,
         };
@@ -342,9 +356,22 @@ fn parse_class(file: &LibraryFile, all: &[LibraryFile]) -> Result<FurnitureClass
                 (generator.prototype(nominal, raw.uniform_scale), true, true, Some(generator))
             }
         };
+        let rooms = match &v.rooms {
+            Some(list) => {
+                if let Some(r) = list.get_ref().iter().find(|r| !raw.rooms.get_ref().contains(r)) {
+                    return Err(at(
+                        list.span().start,
+                        format!("variant '{name}': room type '{r}' is not among the class's rooms"),
+                    ));
+                }
+                Some(list.get_ref().clone())
+            }
+            None => None,
+        };
         let variant = FurnitureVariant {
             name,
             weight,
+            rooms,
             size,
             rule,
             support_top: mesh.support_top(),
@@ -355,8 +382,8 @@ fn parse_class(file: &LibraryFile, all: &[LibraryFile]) -> Result<FurnitureClass
         };
         variants.push(variant);
     }
-    if variants.iter().all(|v| v.weight <= 0.0) {
-        return Err(at(0, "every variant has weight 0".into()));
+    if let Some(room) = raw.rooms.get_ref().iter().find(|r| variants.iter().all(|v| v.weight_in(r) <= 0.0)) {
+        return Err(at(0, format!("no variant with a weight above 0 is drawn in '{room}'")));
     }
     Ok(FurnitureClass { class, rooms: raw.rooms.into_inner(), uniform_scale: raw.uniform_scale, variants })
 }
@@ -416,6 +443,14 @@ pub fn check_room_requests(
         }
     }
     Ok(())
+}
+
+impl FurnitureVariant {
+    /// The variant's weight in a room of type `room_type`: 0 where it is not drawn.
+    #[must_use]
+    pub fn weight_in(&self, room_type: &str) -> f32 {
+        if self.rooms.as_ref().is_none_or(|rooms| rooms.iter().any(|r| r == room_type)) { self.weight } else { 0.0 }
+    }
 }
 
 /// Weighted choice of an index; `weights` must hold a positive entry.
@@ -490,6 +525,24 @@ mod tests {
         let text = GOOD.replace("width_m = [1, 2]", "width_m = [2, 1]");
         let err = parse_furniture(&lib(&[("f/bed/bed.toml", &text), ("f/bed/a.obj", BOX_OBJ)])).unwrap_err();
         assert_eq!(err.line, Some(3), "{err}");
+    }
+
+    #[test]
+    fn variants_limited_to_room_types_weigh_nothing_elsewhere() {
+        let two = GOOD.replace("rooms = [\"bedroom\"]", "rooms = [\"bedroom\", \"office\"]");
+        let text = format!("{two}rooms = [\"office\"]\n\n[[variant]]\nobj = \"a\"\nweight = 3.0\n");
+        let classes = parse_furniture(&lib(&[("f/bed/bed.toml", &text), ("f/bed/a.obj", BOX_OBJ)])).unwrap();
+        let [only_office, anywhere] = [&classes[0].variants[0], &classes[0].variants[1]];
+        assert_eq!((only_office.weight_in("office"), only_office.weight_in("bedroom")), (1.0, 0.0));
+        assert_eq!((anywhere.weight_in("office"), anywhere.weight_in("bedroom")), (3.0, 3.0));
+        let stray = GOOD.replace("obj = \"a\"", "obj = \"a\"\nrooms = [\"kitchen\"]");
+        let err = parse_furniture(&lib(&[("f/bed/bed.toml", &stray), ("f/bed/a.obj", BOX_OBJ)])).unwrap_err();
+        assert!(err.to_string().contains("room type 'kitchen' is not among the class's rooms"), "{err}");
+        assert_eq!(err.line, Some(9), "{err}");
+        let nowhere = format!("{two}rooms = [\"office\"]\n");
+        let nowhere = nowhere.replacen("obj = \"a\"\n", "obj = \"a\"\nweight = 0.0\n", 1);
+        let err = parse_furniture(&lib(&[("f/bed/bed.toml", &nowhere), ("f/bed/a.obj", BOX_OBJ)])).unwrap_err();
+        assert!(err.to_string().contains("no variant with a weight above 0 is drawn in 'bedroom'"), "{err}");
     }
 
     #[test]

@@ -17,71 +17,73 @@ fn clutter(b: &mut MeshBuilder, lo: Vec2, hi: Vec2, z: f32, count: u32, keep_cle
         if c.x > keep_clear.0 - 0.12 && c.x < keep_clear.1 + 0.12 {
             continue;
         }
-        match rng.count(0, 4) {
-            0 => b.frustum(
-                "ceramic",
-                glam::Mat4::from_translation(c.extend(z)),
-                0.035,
-                0.045,
-                0.1,
+        small_thing(b, c, z, rng);
+    }
+}
+
+/// The farthest any [`small_thing`] reaches from its centre in the floor plane, metres.
+pub(crate) const SMALL_THING_REACH_M: f32 = 0.14;
+
+/// One small thing standing at `c` on a top at height `z`: a cup, a bowl, a bottle, a stack
+/// of books or a kettle.
+pub(crate) fn small_thing(b: &mut MeshBuilder, c: Vec2, z: f32, rng: &mut ChaCha8Rng) {
+    match rng.count(0, 4) {
+        0 => b.frustum(
+            "ceramic",
+            glam::Mat4::from_translation(c.extend(z)),
+            0.035,
+            0.045,
+            0.1,
+            10,
+            Some("ceramic"),
+            None,
+        ),
+        1 => {
+            b.frustum("ceramic", glam::Mat4::from_translation(c.extend(z)), 0.05, 0.1, 0.07, 12, Some("ceramic"), None)
+        }
+        2 => {
+            let r = rng.between(0.03, 0.045);
+            let h = rng.between(0.2, 0.3);
+            let glass = rng.pick(&["plastic", "ceramic", "metal"]);
+            b.cylinder(glass, c.extend(z), r, h * 0.75, 10);
+            b.frustum(
+                glass,
+                glam::Mat4::from_translation(c.extend(z + h * 0.75)),
+                r,
+                r * 0.35,
+                h * 0.25,
                 10,
-                Some("ceramic"),
                 None,
-            ),
-            1 => b.frustum(
-                "ceramic",
+                Some(glass),
+            );
+        }
+        3 => {
+            let mut top = z;
+            for _ in 0..rng.count(1, 4) {
+                let size = Vec3::new(rng.between(0.14, 0.22), rng.between(0.1, 0.16), rng.between(0.02, 0.04));
+                let frame = glam::Mat4::from_translation(c.extend(top + size.z * 0.5))
+                    * glam::Mat4::from_rotation_z(rng.between(-0.3, 0.3));
+                b.box_in(rng.pick(&["fabric", "plastic", "leather", "picture"]), frame, size);
+                top += size.z;
+            }
+        }
+        _ => {
+            let r = rng.between(0.07, 0.09);
+            b.frustum(
+                "metal",
                 glam::Mat4::from_translation(c.extend(z)),
-                0.05,
-                0.1,
-                0.07,
+                r,
+                r * 0.8,
+                0.18,
                 12,
-                Some("ceramic"),
-                None,
-            ),
-            2 => {
-                let r = rng.between(0.03, 0.045);
-                let h = rng.between(0.2, 0.3);
-                let glass = rng.pick(&["plastic", "ceramic", "metal"]);
-                b.cylinder(glass, c.extend(z), r, h * 0.75, 10);
-                b.frustum(
-                    glass,
-                    glam::Mat4::from_translation(c.extend(z + h * 0.75)),
-                    r,
-                    r * 0.35,
-                    h * 0.25,
-                    10,
-                    None,
-                    Some(glass),
-                );
-            }
-            3 => {
-                let mut top = z;
-                for _ in 0..rng.count(1, 4) {
-                    let size = Vec3::new(rng.between(0.14, 0.22), rng.between(0.1, 0.16), rng.between(0.02, 0.04));
-                    let frame = glam::Mat4::from_translation(c.extend(top + size.z * 0.5))
-                        * glam::Mat4::from_rotation_z(rng.between(-0.3, 0.3));
-                    b.box_in(rng.pick(&["fabric", "plastic", "leather", "picture"]), frame, size);
-                    top += size.z;
-                }
-            }
-            _ => {
-                let r = rng.between(0.07, 0.09);
-                b.frustum(
-                    "metal",
-                    glam::Mat4::from_translation(c.extend(z)),
-                    r,
-                    r * 0.8,
-                    0.18,
-                    12,
-                    Some("metal"),
-                    Some("plastic"),
-                );
-                b.cuboid(
-                    "plastic",
-                    c.extend(z + 0.05) + Vec3::new(r * 0.9, -0.01, 0.0),
-                    c.extend(z + 0.15) + Vec3::new(r * 0.9 + 0.03, 0.01, 0.0),
-                );
-            }
+                Some("metal"),
+                Some("plastic"),
+            );
+            b.cuboid(
+                "plastic",
+                c.extend(z + 0.05) + Vec3::new(r * 0.9, -0.01, 0.0),
+                c.extend(z + 0.15) + Vec3::new(r * 0.9 + 0.03, 0.01, 0.0),
+            );
         }
     }
 }

@@ -23,6 +23,7 @@ pub mod builder;
 mod bath;
 mod beds;
 mod furnishings;
+pub(crate) use furnishings::{SMALL_THING_REACH_M, small_thing};
 mod lamps;
 mod plants;
 mod screens;
