@@ -1,14 +1,14 @@
 //! `plan.png`: a top-down plan of a scene, north up.
 //!
 //! Rooms are filled by type and labelled, walls drawn at their thickness with door and window
-//! openings, thresholds in gold, furniture footprints coloured by class, with a legend and a
-//! scale bar. Drawn with plain rectangle fills and an 8x8 bitmap font so the picture needs no
+//! openings, door leaves with their swing arcs as architects draw them, thresholds in gold,
+//! furniture footprints coloured by class, with a legend and a scale bar. Drawn with plain rectangle fills and an 8x8 bitmap font so the picture needs no
 //! font files and is identical on every machine.
 
 use glam::Vec2;
 use image::{Rgb, RgbImage};
 
-use scene_gen_scene::scene::{ObjectClass, OpeningKind, Scene};
+use scene_gen_scene::scene::{DoorLeaf, ObjectClass, OpeningKind, Scene};
 
 /// Pixels per metre of the plan.
 const PX_PER_M: f32 = 40.0;
@@ -24,6 +24,8 @@ const GOLD: Rgb<u8> = Rgb([212, 175, 55]);
 const TEXT: Rgb<u8> = Rgb([20, 20, 20]);
 /// Furnishings (wardrobes, counters...): not detection targets, drawn in neutral grey.
 const FURNISHING: Rgb<u8> = Rgb([176, 176, 176]);
+/// A door's swing arc.
+const SWING: Rgb<u8> = Rgb([150, 150, 150]);
 
 /// Fill colour per class, in class-id order (a qualitative palette, Tableau 10).
 const CLASS_RGB: [[u8; 3]; 10] = [
@@ -82,6 +84,9 @@ pub fn draw(scene: &Scene) -> RgbImage {
         canvas.outline_world(object.min.truncate(), object.max.truncate(), darker(Rgb([r, g, b])));
     }
     draw_walls(&mut canvas, scene);
+    for (door, leaf) in scene.doors.iter().filter_map(|d| d.leaf.map(|l| (d, l))) {
+        draw_leaf(&mut canvas, &leaf, door.normal);
+    }
     for threshold in &scene.thresholds {
         canvas.fill_world(threshold.min.truncate(), threshold.max.truncate(), GOLD);
     }
@@ -171,6 +176,26 @@ fn scene_room_label(room_type: &str) -> String {
 
 fn darker(c: Rgb<u8>) -> Rgb<u8> {
     Rgb(c.0.map(|v| (u16::from(v) * 6 / 10) as u8))
+}
+
+/// A door leaf as a line from its hinge, and the arc its free edge swept from shut.
+fn draw_leaf(canvas: &mut Canvas, leaf: &DoorLeaf, wall_normal: Vec2) {
+    // Shut, the leaf lies along the wall: of the two ways to turn back by `open_deg`, the one
+    // that ends square to the wall's normal.
+    let back = |sign: f32| Vec2::from_angle(-sign * leaf.open_deg.to_radians()).rotate(leaf.direction);
+    let sign = if back(1.0).dot(wall_normal).abs() <= back(-1.0).dot(wall_normal).abs() { 1.0 } else { -1.0 };
+    let steps = (leaf.open_deg / 2.0).ceil() as usize;
+    for i in 0..=steps {
+        let turn = -sign * leaf.open_deg.to_radians() * i as f32 / steps as f32;
+        let p = leaf.hinge + Vec2::from_angle(turn).rotate(leaf.direction) * leaf.width_m;
+        canvas.fill_world(p, p, SWING);
+    }
+    let samples = (leaf.width_m * PX_PER_M).ceil() as usize * 2;
+    for i in 0..=samples {
+        let p = leaf.hinge + leaf.direction * (leaf.width_m * i as f32 / samples as f32);
+        let (x, y) = canvas.to_px(p);
+        canvas.fill_px(x - 1, y - 1, 2, 2, WALL);
+    }
 }
 
 /// An image with the plan's world-to-pixel mapping.
@@ -263,5 +288,12 @@ mod tests {
         let is_object = scene.objects.iter().any(|o| inside(o.min, o.max))
             || scene.furnishings.iter().any(|f| inside(f.min, f.max));
         assert!(is_object || *found == fill, "expected the room fill at ({x}, {y}), got {found:?}");
+        // Every door leaf is drawn: the middle of each is wall-dark.
+        let leaves: Vec<_> = scene.doors.iter().filter_map(|d| d.leaf).collect();
+        assert!(!leaves.is_empty());
+        for leaf in leaves {
+            let (x, y) = canvas.to_px(leaf.hinge + leaf.direction * (0.5 * leaf.width_m));
+            assert_eq!(*image.get_pixel(x as u32, y as u32), WALL, "leaf of room {} not drawn", leaf.room);
+        }
     }
 }
