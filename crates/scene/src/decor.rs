@@ -20,7 +20,7 @@ use crate::materials::MaterialCatalog;
 use crate::placement::{Rect, TableTop};
 use crate::procedural::builder::MeshBuilder;
 use crate::procedural::{SMALL_THING_REACH_M, small_thing};
-use crate::scene::{Geometry, Mesh, Node, OpeningKind, Primitive, Room, Semantic, Wall, Window};
+use crate::scene::{Geometry, Mesh, OpeningKind, Primitive, Room, Semantic, Wall, Window};
 
 /// Height of a picture's centre above the floor (eye level, gallery convention ~1.45 m).
 const PICTURE_CENTER_M: f32 = 1.45;
@@ -115,13 +115,8 @@ fn add_rug(
     let slack = room_size - size;
     let center = lo + Vec2::splat(RUG_WALL_MARGIN_M) + size * 0.5 + slack * Vec2::new(rng.random(), rng.random());
     let material = materials.material(geometry, "rug", rng.random_range(0..VARIANTS)).expect("rug is a known surface");
-    let mesh = push_mesh(geometry, format!("rug_{}", room.id), slab(Vec3::new(size.x, size.y, RUG_HEIGHT_M), material));
-    geometry.nodes.push(Node {
-        name: format!("rug_{}", room.id),
-        mesh,
-        transform: Mat4::from_translation(center.extend(0.0)),
-        semantic: Semantic::Decor { room: room.id },
-    });
+    let mesh = slab_mesh(format!("rug_{}", room.id), Vec3::new(size.x, size.y, RUG_HEIGHT_M), material);
+    geometry.push_placed(mesh, Mat4::from_translation(center.extend(0.0)), Semantic::Decor { room: room.id });
 }
 
 fn add_picture(
@@ -155,16 +150,12 @@ fn add_picture(
     let material =
         materials.material(geometry, "picture", rng.random_range(0..VARIANTS)).expect("picture is a known surface");
     let id = geometry.nodes.len();
-    let mesh = push_mesh(geometry, format!("picture_{id}"), slab(Vec3::new(size.x, PICTURE_DEPTH_M, size.y), material));
+    let mesh = slab_mesh(format!("picture_{id}"), Vec3::new(size.x, PICTURE_DEPTH_M, size.y), material);
     // The slab's +Y face carries the image; turn it to face into the room.
     let yaw = inward.y.atan2(inward.x) - std::f32::consts::FRAC_PI_2;
     let center = face.extend(PICTURE_CENTER_M - size.y * 0.5);
-    geometry.nodes.push(Node {
-        name: format!("picture_{id}"),
-        mesh,
-        transform: Mat4::from_rotation_translation(Quat::from_rotation_z(yaw), center),
-        semantic: Semantic::Decor { room: room.id },
-    });
+    let transform = Mat4::from_rotation_translation(Quat::from_rotation_z(yaw), center);
+    geometry.push_placed(mesh, transform, Semantic::Decor { room: room.id });
 }
 
 /// Hangs a rod and two pleated panels of `width` at `window`, each panel as long as the
@@ -237,14 +228,9 @@ fn add_curtains(
     let id = geometry.nodes.len();
     let name = format!("curtains_{id}");
     let mesh = b.into_asset_mesh().to_mesh(&name, |surface| if surface == "metal" { rod } else { cloth });
-    geometry.meshes.push(mesh);
     let yaw = along.y.atan2(along.x);
-    geometry.nodes.push(Node {
-        name,
-        mesh: geometry.meshes.len() - 1,
-        transform: Mat4::from_translation(face.extend(0.0)) * Mat4::from_rotation_z(yaw),
-        semantic: Semantic::Decor { room: room.id },
-    });
+    let transform = Mat4::from_translation(face.extend(0.0)) * Mat4::from_rotation_z(yaw);
+    geometry.push_placed(mesh, transform, Semantic::Decor { room: room.id });
 }
 
 /// A pleated panel across `x` (curtain frame), from `bottom` to `top`: a zigzag of cloth
@@ -297,13 +283,7 @@ fn add_table_things(
     let mesh = b.into_asset_mesh().to_mesh(&name, |surface| {
         materials.material(geometry, surface, variant).expect("small things use known surfaces")
     });
-    geometry.meshes.push(mesh);
-    geometry.nodes.push(Node {
-        name,
-        mesh: geometry.meshes.len() - 1,
-        transform: Mat4::IDENTITY,
-        semantic: Semantic::Decor { room: top.room },
-    });
+    geometry.push_placed(mesh, Mat4::IDENTITY, Semantic::Decor { room: top.room });
     Some((min, max))
 }
 
@@ -319,9 +299,9 @@ fn free_offset(wall: &Wall, length: f32, width: f32, rng: &mut impl Rng) -> Opti
     })
 }
 
-fn push_mesh(geometry: &mut Geometry, name: String, primitive: Primitive) -> usize {
-    geometry.meshes.push(Mesh { name, primitives: vec![primitive] });
-    geometry.meshes.len() - 1
+/// A mesh of one [`slab`].
+fn slab_mesh(name: String, size: Vec3, material: usize) -> Mesh {
+    Mesh { name, primitives: vec![slab(size, material)] }
 }
 
 /// A box of `size`, centred on x = y = 0 and resting on z = 0. Its top (+Z) and front (+Y)

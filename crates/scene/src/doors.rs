@@ -21,7 +21,7 @@ use crate::floorplan::Floorplan;
 use crate::materials::{MaterialCatalog, VARIANTS};
 use crate::placement::{self, Rect};
 use crate::procedural::builder::MeshBuilder;
-use crate::scene::{Door, DoorLeaf, Geometry, Node, OpeningKind, Room, Semantic};
+use crate::scene::{Door, DoorLeaf, Geometry, OpeningKind, Room, Semantic};
 
 /// Leaf thickness (interior doors are 35-44 mm).
 const THICKNESS_M: f32 = 0.04;
@@ -30,7 +30,7 @@ const EDGE_GAP_M: f32 = 0.004;
 /// Gap between the hinge side of the leaf and the wall face.
 const HINGE_OFFSET_M: f32 = 0.003;
 /// How far the lever handles stand off each face; the swing test pads the leaf by this much.
-pub const HANDLE_REACH_M: f32 = 0.06;
+const HANDLE_REACH_M: f32 = 0.06;
 /// Length of the stretch of a leaf, back from its free edge, that its handles span.
 const HANDLE_SPAN_M: f32 = 0.18;
 /// Handle height above the floor (EN 1906 lever handles: 0.9-1.05 m; 1.0 m typical).
@@ -59,10 +59,10 @@ pub fn build(
         furniture.iter().map(|(min, max)| Rect { min: min.truncate(), max: max.truncate() }).collect();
     let mut leaves: Vec<Option<DoorLeaf>> = Vec::with_capacity(plan.doors.len());
     for door in &plan.doors {
-        let hung: Vec<DoorLeaf> = leaves.iter().flatten().copied().collect();
-        let obstacles =
-            Obstacles { plan, furniture: &furniture, leaves: &hung, wall_thickness_m: config.wall_thickness_m };
-        let leaf = hang(door, &obstacles, &mut rng);
+        let hung: Vec<[Vec2; 4]> = leaves.iter().flatten().flat_map(solids).collect();
+        let room_obstacles =
+            |room: &Room| RoomObstacles::new(door, room, plan, &furniture, &hung, config.wall_thickness_m);
+        let leaf = hang(door, plan, room_obstacles, config.wall_thickness_m, &mut rng);
         if let Some(leaf) = &leaf {
             add_mesh(door, leaf, finish, variant, materials, geometry);
         }
@@ -71,30 +71,50 @@ pub fn build(
     leaves
 }
 
-/// What a leaf must keep clear of.
-struct Obstacles<'a> {
-    plan: &'a Floorplan,
-    furniture: &'a [Rect],
-    leaves: &'a [DoorLeaf],
-    wall_thickness_m: f32,
+/// The world box of a leaf and its handles.
+#[must_use]
+pub fn bounds(leaf: &DoorLeaf) -> (Vec3, Vec3) {
+    let footprint = leaf.footprint(HANDLE_REACH_M);
+    let lo = footprint.iter().fold(Vec2::MAX, |m, p| m.min(*p));
+    let hi = footprint.iter().fold(Vec2::MIN, |m, p| m.max(*p));
+    (lo.extend(0.0), hi.extend(leaf.height_m))
 }
 
-impl Obstacles<'_> {
-    /// Whether `leaf` and its handles stand inside its room, clear of everything.
-    fn admit(&self, door: &Door, room: &Room, leaf: &DoorLeaf) -> bool {
-        let (lo, hi) = room.interior(self.wall_thickness_m);
-        let clearances: Vec<Rect> = self
-            .plan
+/// What a leaf opening into one room must keep clear of.
+struct RoomObstacles {
+    /// The room's interior.
+    lo: Vec2,
+    hi: Vec2,
+    /// Furniture footprints and the clearances of the room's other doors.
+    rects: Vec<Rect>,
+    /// The solids of the leaves hung already.
+    hung: Vec<[Vec2; 4]>,
+}
+
+impl RoomObstacles {
+    fn new(
+        door: &Door,
+        room: &Room,
+        plan: &Floorplan,
+        furniture: &[Rect],
+        hung: &[[Vec2; 4]],
+        wall_thickness_m: f32,
+    ) -> RoomObstacles {
+        let (lo, hi) = room.interior(wall_thickness_m);
+        let clearances = plan
             .doors
             .iter()
             .filter(|d| d.id != door.id)
-            .filter_map(|d| placement::door_clearance(d, room.id, self.wall_thickness_m))
-            .collect();
-        let hung: Vec<[Vec2; 4]> = self.leaves.iter().flat_map(solids).collect();
+            .filter_map(|d| placement::door_clearance(d, room.id, wall_thickness_m));
+        RoomObstacles { lo, hi, rects: furniture.iter().copied().chain(clearances).collect(), hung: hung.to_vec() }
+    }
+
+    /// Whether `leaf` and its handles stand inside the room, clear of everything.
+    fn admit(&self, leaf: &DoorLeaf) -> bool {
         solids(leaf).iter().all(|solid| {
-            solid.iter().all(|p| p.cmpge(lo - 1e-4).all() && p.cmple(hi + 1e-4).all())
-                && !self.furniture.iter().chain(&clearances).any(|r| overlaps(solid, r))
-                && !hung.iter().any(|other| convex_overlap(solid, other))
+            solid.iter().all(|p| p.cmpge(self.lo - 1e-4).all() && p.cmple(self.hi + 1e-4).all())
+                && !self.rects.iter().any(|r| overlaps(solid, r))
+                && !self.hung.iter().any(|other| convex_overlap(solid, other))
         })
     }
 }
@@ -110,27 +130,34 @@ fn solids(leaf: &DoorLeaf) -> [[Vec2; 4]; 2] {
 
 /// The leaf of `door`: the first (room, hinge side) of a seeded order in which it can stand
 /// square to the wall, opened a seeded fraction of the way to where its swing stops.
-fn hang(door: &Door, obstacles: &Obstacles<'_>, rng: &mut ChaCha8Rng) -> Option<DoorLeaf> {
+fn hang(
+    door: &Door,
+    plan: &Floorplan,
+    obstacles_in: impl Fn(&Room) -> RoomObstacles,
+    wall_thickness_m: f32,
+    rng: &mut ChaCha8Rng,
+) -> Option<DoorLeaf> {
     let first_room = rng.random_range(0..2usize);
     let first_side = if rng.random_bool(0.5) { 1.0 } else { -1.0 };
     let opening = rng.random::<f32>();
     let rooms = [door.rooms[first_room], door.rooms[1 - first_room]];
     for room_id in rooms.into_iter().flatten() {
-        let room = obstacles.plan.rooms.iter().find(|r| r.id == room_id)?;
+        let room = plan.rooms.iter().find(|r| r.id == room_id)?;
+        let obstacles = obstacles_in(room);
         for side in [first_side, -first_side] {
-            let at = |open_deg: f32| leaf_at(door, room_id, side, open_deg, obstacles.wall_thickness_m);
-            if !obstacles.admit(door, room, &at(90.0)) {
+            let at = |open_deg: f32| leaf_at(door, room_id, side, open_deg, wall_thickness_m);
+            if !obstacles.admit(&at(90.0)) {
                 continue;
             }
             let mut widest = 90.0;
-            while widest + SWING_STEP_DEG <= MAX_OPEN_DEG && obstacles.admit(door, room, &at(widest + SWING_STEP_DEG)) {
+            while widest + SWING_STEP_DEG <= MAX_OPEN_DEG && obstacles.admit(&at(widest + SWING_STEP_DEG)) {
                 widest += SWING_STEP_DEG;
             }
             // The swing was tested in steps: an angle between two steps may still graze a
             // corner that pokes in between them, and then the leaf stops at the step before.
             let open_deg = 90.0 + opening * (widest - 90.0);
             let leaf = at(open_deg);
-            return Some(if obstacles.admit(door, room, &leaf) {
+            return Some(if obstacles.admit(&leaf) {
                 leaf
             } else {
                 at(90.0 + ((open_deg - 90.0) / SWING_STEP_DEG).floor() * SWING_STEP_DEG)
@@ -143,7 +170,7 @@ fn hang(door: &Door, obstacles: &Obstacles<'_>, rng: &mut ChaCha8Rng) -> Option<
 /// The leaf of `door` opening into `room` with its hinge on the jamb at `side` (+1: the
 /// jamb along the wall's tangent, -1: the other), `open_deg` from shut.
 fn leaf_at(door: &Door, room: u32, side: f32, open_deg: f32, wall_thickness_m: f32) -> DoorLeaf {
-    let inward = if door.rooms[0] == Some(room) { -door.normal } else { door.normal };
+    let inward = door.inward(room).expect("a leaf opens into one of its door's rooms");
     let tangent = inward.perp();
     let hinge = door.center.truncate()
         + tangent * (side * 0.5 * door.width_m)
@@ -190,14 +217,12 @@ fn add_mesh(
     let mesh = b.into_asset_mesh().to_mesh(&name, |surface| {
         materials.material(geometry, surface, variant).expect("door finishes are known surfaces")
     });
-    geometry.meshes.push(mesh);
     let yaw = leaf.direction.y.atan2(leaf.direction.x);
-    geometry.nodes.push(Node {
-        name,
-        mesh: geometry.meshes.len() - 1,
-        transform: Mat4::from_translation(leaf.hinge.extend(0.0)) * Mat4::from_rotation_z(yaw),
-        semantic: Semantic::Opening { kind: OpeningKind::Door, id: door.id },
-    });
+    geometry.push_placed(
+        mesh,
+        Mat4::from_translation(leaf.hinge.extend(0.0)) * Mat4::from_rotation_z(yaw),
+        Semantic::Opening { kind: OpeningKind::Door, id: door.id },
+    );
 }
 
 /// Whether a convex quadrilateral and a rectangle overlap (more than touching).

@@ -50,7 +50,7 @@ pub fn generate(config: &GeneratorConfig, library: &Library) -> Result<Scene, Ge
         door.leaf = leaf;
     }
     // Pictures keep clear of leaves as of furniture.
-    furniture.extend(plan.doors.iter().filter_map(|d| d.leaf).map(|leaf| leaf_bounds(&leaf)));
+    furniture.extend(plan.doors.iter().filter_map(|d| d.leaf).map(|leaf| doors::bounds(&leaf)));
     decor::build(config, &plan, &furniture, &table_tops, &mut materials, &mut geometry);
     let lights = lights::build(config, &plan, &objects);
     log::info!(
@@ -83,12 +83,4 @@ pub fn generate(config: &GeneratorConfig, library: &Library) -> Result<Scene, Ge
         lights,
         geometry,
     })
-}
-
-/// The world box of a door leaf and its handles.
-fn leaf_bounds(leaf: &crate::scene::DoorLeaf) -> (glam::Vec3, glam::Vec3) {
-    let footprint = leaf.footprint(doors::HANDLE_REACH_M);
-    let lo = footprint.iter().fold(glam::Vec2::MAX, |m, p| m.min(*p));
-    let hi = footprint.iter().fold(glam::Vec2::MIN, |m, p| m.max(*p));
-    (lo.extend(0.0), hi.extend(leaf.height_m))
 }

@@ -113,12 +113,6 @@ impl Palette {
         &PALETTES[rng.random_range(0..PALETTES.len())]
     }
 
-    /// The palette called `name`, if any.
-    #[must_use]
-    pub fn named(name: &str) -> Option<&'static Palette> {
-        PALETTES.iter().find(|p| p.name == name)
-    }
-
     /// The texture variant (below [`VARIANTS`]) of `surface` for a caller's `variant`: one
     /// whose base colour is in this palette, chosen by `variant` among them, or `variant`
     /// itself for a surface the palette does not name.
@@ -172,6 +166,5 @@ mod tests {
     fn seeds_draw_every_palette() {
         let drawn: std::collections::BTreeSet<&str> = (0..200).map(|s| Palette::of_seed(s).name).collect();
         assert_eq!(drawn.len(), PALETTES.len());
-        assert_eq!(Palette::named("coastal").map(|p| p.name), Some("coastal"));
     }
 }

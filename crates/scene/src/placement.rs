@@ -362,13 +362,7 @@ impl WalkGrid {
             grid.blocked[k] = !(p.x > inner.min.x && p.x < inner.max.x && p.y > inner.min.y && p.y < inner.max.y);
         }
         for door in &plan.doors {
-            let inward = if door.rooms[0] == Some(room.id) {
-                -door.normal
-            } else if door.rooms[1] == Some(room.id) {
-                door.normal
-            } else {
-                continue;
-            };
+            let Some(inward) = door.inward(room.id) else { continue };
             let entry = door.center.truncate() + inward * (wall_thickness_m * 0.5 + radius + 0.05);
             let k = grid.cell(entry);
             // The agent squeezes through a door set close to a corner.
@@ -535,13 +529,7 @@ fn span(origin: Vec2, tangent: Vec2, inward: Vec2, lateral: [f32; 2], depth: [f3
 /// the door does not open on that room.
 #[must_use]
 pub fn door_clearance(door: &Door, room: u32, wall_thickness_m: f32) -> Option<Rect> {
-    let inward = if door.rooms[0] == Some(room) {
-        -door.normal
-    } else if door.rooms[1] == Some(room) {
-        door.normal
-    } else {
-        return None;
-    };
+    let inward = door.inward(room)?;
     let tangent = Vec2::new(-inward.y, inward.x);
     let half = door.width_m * 0.5 + DOOR_MARGIN_M;
     let depth = wall_thickness_m * 0.5 + DOOR_CLEAR_DEPTH_M;

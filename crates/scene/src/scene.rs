@@ -340,6 +340,21 @@ pub struct Door {
     pub leaf: Option<DoorLeaf>,
 }
 
+impl Door {
+    /// Unit horizontal normal of the wall pointing into room `room`; `None` when the door
+    /// does not open on it.
+    #[must_use]
+    pub fn inward(&self, room: u32) -> Option<Vec2> {
+        if self.rooms[0] == Some(room) {
+            Some(-self.normal)
+        } else if self.rooms[1] == Some(room) {
+            Some(self.normal)
+        } else {
+            None
+        }
+    }
+}
+
 /// The leaf of a door, standing open into one of the door's rooms: a slab hinged on a
 /// vertical axis at one jamb, just off the wall's face.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -531,6 +546,15 @@ pub struct Geometry {
     pub materials: Vec<Material>,
     pub textures: Vec<Texture>,
     pub nodes: Vec<Node>,
+}
+
+impl Geometry {
+    /// Adds `mesh` and one node of the same name placing it by `transform`: a mesh of its own
+    /// (structure, decor, door leaves), not shared with other nodes.
+    pub fn push_placed(&mut self, mesh: Mesh, transform: Mat4, semantic: Semantic) {
+        self.nodes.push(Node { name: mesh.name.clone(), mesh: self.meshes.len(), transform, semantic });
+        self.meshes.push(mesh);
+    }
 }
 
 /// A mesh in its own frame; shared by every node that places it.

@@ -22,7 +22,7 @@ use crate::config::GeneratorConfig;
 use crate::floorplan::{Floorplan, normal_away_from};
 use crate::library::RoomType;
 use crate::materials::{MaterialCatalog, UnknownSurface};
-use crate::scene::{Geometry, Mesh, Node, OpeningKind, Primitive, Semantic, Threshold, Wall};
+use crate::scene::{Geometry, Mesh, OpeningKind, Primitive, Semantic, Threshold, Wall};
 
 /// Threshold heights drawn, metres: low enough to step over, high enough for a camera to have
 /// to notice (the reference system's gold obstacles, docs/REFERENCE.md, "Environment").
@@ -147,8 +147,7 @@ fn pick<'a>(rng: &mut ChaCha8Rng, list: &'a [String]) -> &'a str {
 }
 
 fn push_node(geometry: &mut Geometry, name: String, primitives: Vec<Primitive>, semantic: Semantic) {
-    geometry.meshes.push(Mesh { name: name.clone(), primitives });
-    geometry.nodes.push(Node { name, mesh: geometry.meshes.len() - 1, transform: Mat4::IDENTITY, semantic });
+    geometry.push_placed(Mesh { name, primitives }, Mat4::IDENTITY, semantic);
 }
 
 /// A wall's own coordinates: `s` along the centre line from `a`, `w` across it (positive away

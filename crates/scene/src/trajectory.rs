@@ -9,9 +9,9 @@
 //!    over the house plus a margin. A cell is blocked when its centre is closer than the agent
 //!    radius to a wall (less its door openings; windows have a sill, so a wall is solid at
 //!    floor level under a window), to an open door leaf, or to the footprint of an object or
-//!    furnishing that reaches below [`OBSTACLE_MAX_BOTTOM_M`]. Outside the house only an apron of [`APRON_M`] around each
-//!    exterior door is free, so the agent can step out and back in but never walks around
-//!    the house.
+//!    furnishing that reaches below [`OBSTACLE_MAX_BOTTOM_M`]. Outside the house only an
+//!    apron of [`APRON_M`] around each exterior door is free, so the agent can step out and
+//!    back in but never walks around the house.
 //! 2. **Goals**: a depth-first walk over the door graph from the first room (lowest id): the
 //!    agent goes to each room's centre (the nearest reachable free cell), and for every door
 //!    of the room in id order: to a point [`DOOR_STANDOFF_M`] before the door, through it to
@@ -135,7 +135,8 @@ pub struct OccupancyGrid {
     pub blocked: Vec<bool>,
 }
 
-/// Solid wall pieces at floor level as (a, b, half thickness), i.e. each wall less its doors.
+/// Solid wall pieces at floor level as (a, b, half thickness): each wall less its doors, and
+/// the open door leaves.
 fn wall_pieces(scene: &Scene) -> Vec<(Vec2, Vec2, f32)> {
     let mut out = Vec::new();
     for wall in &scene.walls {
@@ -156,6 +157,8 @@ fn wall_pieces(scene: &Scene) -> Vec<(Vec2, Vec2, f32)> {
             out.push((wall.a + dir * start, wall.b, 0.5 * wall.thickness_m));
         }
     }
+    // An open door leaf stands like a thin wall from its hinge to its free edge.
+    out.extend(scene.doors.iter().filter_map(|d| d.leaf).map(|l| (l.hinge, l.free_edge(), 0.5 * l.thickness_m)));
     out
 }
 
@@ -194,13 +197,6 @@ pub fn clearance_m(scene: &Scene, p: Vec2) -> f32 {
 
 fn clearance_with(scene: &Scene, walls: &[(Vec2, Vec2, f32)], p: Vec2) -> f32 {
     let w = walls.iter().map(|&piece| dist_to_piece(p, piece)).fold(f32::INFINITY, f32::min);
-    // A door leaf is a thin slab on the floor: a wall piece from its hinge to its free edge.
-    let leaves = scene
-        .doors
-        .iter()
-        .filter_map(|d| d.leaf)
-        .map(|l| dist_to_piece(p, (l.hinge, l.free_edge(), 0.5 * l.thickness_m)))
-        .fold(f32::INFINITY, f32::min);
     let o = scene
         .objects
         .iter()
@@ -209,7 +205,7 @@ fn clearance_with(scene: &Scene, walls: &[(Vec2, Vec2, f32)], p: Vec2) -> f32 {
         .filter(|(min, _)| min.z < OBSTACLE_MAX_BOTTOM_M)
         .map(|(min, max)| dist_to_rect(p, min.truncate(), max.truncate()))
         .fold(f32::INFINITY, f32::min);
-    w.min(leaves).min(o)
+    w.min(o)
 }
 
 fn in_any_room(scene: &Scene, p: Vec2) -> bool {
@@ -391,13 +387,7 @@ fn goals(scene: &Scene) -> Vec<(Vec2, Vec2, Vec2)> {
             if doors_done[di] {
                 continue;
             }
-            let inward_here = if door.rooms[0] == Some(room) {
-                -door.normal
-            } else if door.rooms[1] == Some(room) && door.rooms[0].is_some() {
-                door.normal
-            } else {
-                continue;
-            };
+            let Some(inward_here) = door.inward(room) else { continue };
             doors_done[di] = true;
             let c = door.center.truncate();
             let other = if door.rooms[0] == Some(room) { door.rooms[1] } else { door.rooms[0] };
