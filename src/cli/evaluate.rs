@@ -4,7 +4,7 @@
 use anyhow::anyhow;
 use clap::Args;
 use scene_gen::camera_spec::CameraSpec;
-use scene_gen::evaluate::{EvalConfig, EvalError, Evaluation, ExternalDetector, ScenarioScore, evaluate_with_progress};
+use scene_gen::evaluate::{DetectorChoice, EvalConfig, EvalError, Evaluation, ScenarioScore, evaluate_with_progress};
 use scene_gen::isp::OutputRule;
 use scene_gen::render::RenderSettings;
 use scene_gen::seeds::{SeedRange, SeedsError};
@@ -37,8 +37,10 @@ pub struct EvaluateArgs {
     /// anchor frames, rounded up).
     #[arg(long)]
     pub min_usable: Option<u32>,
-    /// External detector command (split on whitespace) run under the plug-in protocol on the
-    /// anchor frames; `{gt}` is replaced by the COCO ground-truth file written next to them.
+    /// The detector: `model` (the fast detectability model, default), `cnn` (the learned
+    /// detector on each 8-bit frame), or an external command (split on whitespace) run under
+    /// the plug-in protocol on the anchor frames, where `{gt}` is replaced by the COCO
+    /// ground-truth file written next to them.
     #[arg(long)]
     pub detector: Option<String>,
     /// Final-gather bounce rays per pixel in the evaluator's render, each bounce lit by its
@@ -125,9 +127,9 @@ pub fn run(args: &EvaluateArgs) -> Result<(), CliError> {
     }
     let output = OutputRule::parse(&args.output).map_err(|e| bad_input(anyhow!("--output: {e}")))?;
     let detector = match &args.detector {
-        None => None,
-        Some(cmd) => {
-            Some(ExternalDetector::parse(cmd).ok_or_else(|| bad_input(anyhow!("--detector: the command is empty")))?)
+        None => DetectorChoice::default(),
+        Some(text) => {
+            DetectorChoice::parse(text).ok_or_else(|| bad_input(anyhow!("--detector: the command is empty")))?
         }
     };
     if args.bounce_rays > MAX_BOUNCE_RAYS {

@@ -2,6 +2,7 @@
 
 mod calibrate;
 mod dataset;
+mod detect;
 mod evaluate;
 mod gap;
 mod generate;
@@ -80,6 +81,10 @@ pub enum Command {
     Serve(serve::ServeArgs),
     /// COCO dataset (images, depth, instance masks, annotations) over a seed range, shardable.
     Dataset(dataset::DatasetArgs),
+    /// The learned detector on any images: COCO results per image (`--json` for pycocotools).
+    Detect(detect::DetectArgs),
+    /// The learned detector's training.
+    Detector(detect::DetectorArgs),
     /// Test-chart loop: simulate a chart image, or name the effects a chart photograph shows.
     Target(target::TargetArgs),
     /// Camera-design optimizer: the TaCOS genetic algorithm or random search, resumable.
@@ -121,6 +126,8 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Some(Command::Evaluate(args)) => evaluate::run(&args),
         Some(Command::Serve(args)) => serve::run(&args),
         Some(Command::Dataset(args)) => dataset::run(&args),
+        Some(Command::Detect(args)) => detect::run_detect(&args),
+        Some(Command::Detector(args)) => detect::run_detector(&args),
         Some(Command::Target(args)) => target::run(&args),
         Some(Command::Optimize(args)) => optimize::run(&args),
         Some(Command::Completions(args)) => completions(&args),

@@ -19,6 +19,11 @@ pub fn set_quiet(quiet: bool) {
     QUIET.store(quiet, Ordering::Relaxed);
 }
 
+/// Whether `--quiet` silenced progress reports.
+pub fn is_quiet() -> bool {
+    QUIET.load(Ordering::Relaxed)
+}
+
 /// How often a plain progress line is written.
 fn period() -> Duration {
     let seconds = std::env::var("SCENE_GEN_PROGRESS_S").ok().and_then(|v| v.parse::<f64>().ok());

@@ -32,10 +32,11 @@
 //!   the pixel count. It is geometric, so the same in both scenarios.
 //! * **AP@0.5** of the detector against the instance buffer's ground truth
 //!   ([`frame_ground_truth`]), [`coco_eval::evaluate`] over every anchor of every seed (an AP
-//!   of -1, no ground truth at all, counts as 0). The detector is the built-in
-//!   [`DetectabilityModel`], told the camera's noise at each output level
-//!   (`detection::output_noise`) and drawing with one seed per pose for both scenarios, or an
-//!   external program ([`EvalConfig::detector`], `--detector "CMD ARGS"`) run once per
+//!   of -1, no ground truth at all, counts as 0). The detector ([`EvalConfig::detector`]) is
+//!   the built-in [`DetectabilityModel`] (the default), told the camera's noise at each output
+//!   level (`detection::output_noise`) and drawing with one seed per pose for both scenarios;
+//!   the learned detector (`--detector cnn`, `detection::cnn`) on each anchor's 8-bit image,
+//!   sRGB for a colour camera; or an external program ([`EvalConfig::detector`], `--detector "CMD ARGS"`) run once per
 //!   evaluation under the plug-in protocol of `scene_gen_perception::detection`, on the
 //!   anchors' 8-bit PNGs with a COCO ground-truth file beside them (`{gt}` in the command).
 //! * **ORB** (2000 features, cross-checked matches, fundamental RANSAC at 3 px) on each
@@ -85,6 +86,7 @@ use scene_gen_camera::camera_spec::{CameraSpec, ResolvedCamera, SpecError};
 use scene_gen_camera::capture::{Capture, CaptureError, PerceptionImage, scenario_name};
 use scene_gen_camera::isp::OutputRule;
 use scene_gen_camera::sensor::Catalog;
+use scene_gen_perception::detection::cnn::{CnnDetector, ImageView};
 use scene_gen_perception::detection::coco_eval::{self, CocoCategory, CocoGroundTruth, CocoImage, DetectionRecord};
 use scene_gen_perception::detection::ground_truth::to_annotations;
 use scene_gen_perception::detection::output_noise::{colour_output_noise_by_level, output_noise_by_level};
@@ -228,6 +230,54 @@ impl ExternalDetector {
     }
 }
 
+/// Which detector scores the detection task.
+///
+/// In `evaluate`'s JSON record (`config.detector`) the model is `null` and an external program
+/// its `{program, args}` object, as they always were; the learned detector is `"cnn"`.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub enum DetectorChoice {
+    /// The built-in [`DetectabilityModel`]: a detection probability from object size and
+    /// contrast-to-noise, drawn per object (fast; reads the ground truth).
+    #[default]
+    Model,
+    /// The learned detector ([`scene_gen_perception::detection::cnn`]) on each 8-bit image.
+    Cnn,
+    /// An external program under the plug-in protocol.
+    External(ExternalDetector),
+}
+
+impl DetectorChoice {
+    /// `cnn`, `model`, or an external command line (split on whitespace). `None` for a blank
+    /// command.
+    #[must_use]
+    pub fn parse(text: &str) -> Option<DetectorChoice> {
+        match text.trim() {
+            "cnn" => Some(DetectorChoice::Cnn),
+            "model" => Some(DetectorChoice::Model),
+            command => ExternalDetector::parse(command).map(DetectorChoice::External),
+        }
+    }
+
+    /// The external program, if this is one.
+    #[must_use]
+    pub fn external(&self) -> Option<&ExternalDetector> {
+        match self {
+            DetectorChoice::External(e) => Some(e),
+            _ => None,
+        }
+    }
+}
+
+impl Serialize for DetectorChoice {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        match self {
+            DetectorChoice::Model => serializer.serialize_none(),
+            DetectorChoice::Cnn => serializer.serialize_str("cnn"),
+            DetectorChoice::External(program) => program.serialize(serializer),
+        }
+    }
+}
+
 /// How a candidate is evaluated.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct EvalConfig {
@@ -254,8 +304,8 @@ pub struct EvalConfig {
     /// A scenario with fewer usable images scores the threshold term only (`None`:
     /// [`DEFAULT_MIN_USABLE_FRACTION`] of its anchor frames, rounded up).
     pub min_usable_images: Option<u32>,
-    /// An external detector instead of the built-in [`DetectabilityModel`].
-    pub detector: Option<ExternalDetector>,
+    /// The detector of the detection task.
+    pub detector: DetectorChoice,
     pub weights: FitnessWeights,
     /// The houses: envelope, smallest room, libraries (left out of the record when default).
     #[serde(skip_serializing_if = "HouseOptions::is_default")]
@@ -274,7 +324,7 @@ impl Default for EvalConfig {
             speed_m_s: DEFAULT_SPEED_M_S,
             output: OutputRule::Isp,
             min_usable_images: None,
-            detector: None,
+            detector: DetectorChoice::default(),
             weights: FitnessWeights::default(),
             house: HouseOptions::default(),
         }
@@ -383,6 +433,8 @@ pub enum EvalError {
     Capture(#[from] CaptureError),
     #[error("COCO evaluation: {0}")]
     Coco(#[from] coco_eval::CocoError),
+    #[error("learned detector: {0}")]
+    Cnn(String),
     #[error("external detector: {0}")]
     Plugin(#[from] PluginError),
     #[error("writing detector input {path}: {why}")]
@@ -716,6 +768,15 @@ struct House<'a> {
     threshold_ids: BTreeSet<u32>,
 }
 
+/// The learned detector, loaded once per process from the built-in weights.
+fn cnn_detector() -> Result<&'static CnnDetector, EvalError> {
+    static DETECTOR: OnceLock<Result<CnnDetector, String>> = OnceLock::new();
+    DETECTOR
+        .get_or_init(|| CnnDetector::embedded().map_err(|e| e.to_string()))
+        .as_ref()
+        .map_err(|e| EvalError::Cnn(e.clone()))
+}
+
 /// Renders pose `i` for `role` and scores what can be scored on it alone: threshold pixels,
 /// the scenarios' 8-bit images, ground truth and the built-in detector's answers. `spare`
 /// holds frames finished with, for the next pose to render into.
@@ -758,21 +819,30 @@ fn render_pose(
         for (s, image) in images.iter().enumerate() {
             let grey = &image.grey;
             out.usable.push(image_usable(grey) && objects.iter().any(|o| o.counted));
-            if config.detector.is_none() {
-                let image: Vec<f32> = grey.iter().map(|&v| f32::from(v)).collect();
-                let input = DetectorInput {
-                    image_dn: &image,
-                    width: camera.width_px,
-                    height: camera.height_px,
-                    instance_id: &frame.instance_id,
-                    objects,
-                    noise: house.noise_tables[s].as_deref().map_or(NoiseSource::Measured, NoiseSource::ByLevel),
-                    // One draw seed per pose for both scenarios (common random numbers): an
-                    // object is found by day and not at night only because its probability
-                    // differs, not by the luck of the draw.
-                    frame_seed: detector_seed(house.seed, i),
-                };
-                out.detections.push(detector.detect(&input));
+            match &config.detector {
+                DetectorChoice::Model => {
+                    let image: Vec<f32> = grey.iter().map(|&v| f32::from(v)).collect();
+                    let input = DetectorInput {
+                        image_dn: &image,
+                        width: camera.width_px,
+                        height: camera.height_px,
+                        instance_id: &frame.instance_id,
+                        objects,
+                        noise: house.noise_tables[s].as_deref().map_or(NoiseSource::Measured, NoiseSource::ByLevel),
+                        // One draw seed per pose for both scenarios (common random numbers): an
+                        // object is found by day and not at night only because its probability
+                        // differs, not by the luck of the draw.
+                        frame_seed: detector_seed(house.seed, i),
+                    };
+                    out.detections.push(detector.detect(&input));
+                }
+                DetectorChoice::Cnn => {
+                    let (pixels, channels) = image.rgb.as_deref().map_or((grey.as_slice(), 1), |rgb| (rgb, 3));
+                    let (width, height) = (camera.width_px as usize, camera.height_px as usize);
+                    let view = ImageView { pixels, width, height, channels };
+                    out.detections.push(cnn_detector()?.detect(view).map_err(|e| EvalError::Cnn(e.to_string()))?);
+                }
+                DetectorChoice::External(_) => {}
             }
         }
         out.times[2] += secs(t1);
@@ -863,7 +933,7 @@ impl Tally {
             accs,
             categories,
             threshold_config: ThresholdConfig { window_s: config.threshold_window_s, min_visible_px: min_px },
-            scratch: config.detector.as_ref().map(|_| ScratchDir::new()).transpose()?,
+            scratch: config.detector.external().map(|_| ScratchDir::new()).transpose()?,
             requests: Vec::new(),
             next_image_id: 1,
             timing: Timing::default(),
@@ -1089,7 +1159,7 @@ fn compute(
     for &seed in seeds {
         tally.add_house(&library, seed, spec, resolved, config, progress)?;
     }
-    if let Some(det) = &config.detector {
+    if let Some(det) = config.detector.external() {
         tally.run_external_detector(det)?;
     }
     let day = Tally::score(&tally.accs[0], config)?;

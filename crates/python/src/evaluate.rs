@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 
 use pyo3::prelude::*;
-use scene_gen::evaluate::{EvalConfig, EvalError, ExternalDetector, evaluate_with_progress};
+use scene_gen::evaluate::{DetectorChoice, EvalConfig, EvalError, evaluate_with_progress};
 
 use crate::camera::Camera;
 use crate::progress::Callback;
@@ -35,8 +35,8 @@ pub fn evaluate(
         return Err(bad_input("max_width must be at least 1"));
     }
     let detector = match detector {
-        None => None,
-        Some(cmd) => Some(ExternalDetector::parse(cmd).ok_or_else(|| bad_input("detector: the command is empty"))?),
+        None => DetectorChoice::default(),
+        Some(text) => DetectorChoice::parse(text).ok_or_else(|| bad_input("detector: the command is empty"))?,
     };
     let house = house::checked_options(envelope, min_room, rooms, furniture)?;
     let config = EvalConfig {

@@ -6,6 +6,8 @@
 //!   count (within 6 m, above a pixel floor), as COCO annotations.
 //! * [`detectability`]: the [`Detector`] trait and [`detectability::DetectabilityModel`], a
 //!   Johnson-criteria detector driven by object size and contrast-to-noise on the noisy image.
+//! * [`cnn`]: the learned detector, a small CenterNet-style network trained on scene-gen's own
+//!   datasets and run on the CPU (candle), with its trainer.
 //! * [`output_noise`]: the camera's noise at each level of the 8-bit image, from its sensor
 //!   model and output rule: what the detector divides contrast by in the evaluator.
 //! * [`coco_eval`]: AP@0.5, AP@[.5:.95] and per-class AP exactly as pycocotools computes them,
@@ -46,6 +48,7 @@
 //! the boxes of a COCO ground-truth file; `tests/interop/check_coco.sh` runs it through
 //! [`plugin::run`] and checks that the round trip scores AP = 1.
 
+pub mod cnn;
 pub mod coco_eval;
 pub mod detectability;
 pub mod ground_truth;

@@ -1,0 +1,105 @@
+//! A learned detector for scene-gen's 11 categories: a small CenterNet-style network trained
+//! on scene-gen's own datasets ([`train`]), run on the CPU in Rust by candle.
+//!
+//! Why CenterNet: one heat map per class and a box per peak, no anchors and no non-maximum
+//! suppression, so decoding is a 3 x 3 peak test; the whole detector is one convolutional
+//! graph, cheap at the evaluator's 320 px frames. The network ([`network`]), the boxes-to-maps
+//! encoding ([`encoding`]) and the trainer share one definition, so what is trained is what
+//! runs.
+//!
+//! The weights the project trained (`models/detector/`, with their model card and training log)
+//! are compiled into the library: [`CnnDetector::embedded`] needs no file.
+
+pub mod encoding;
+pub mod network;
+pub mod train;
+
+use std::collections::HashMap;
+
+use candle_core::{Device, Tensor};
+
+use super::Detection;
+pub use encoding::{TargetBox, Targets, decode, encode};
+pub use network::{ImageView, Network};
+
+/// The project's trained weights (safetensors).
+static EMBEDDED_WEIGHTS: &[u8] =
+    include_bytes!(concat!(env!("CARGO_MANIFEST_DIR"), "/../../models/detector/detector.safetensors"));
+
+/// Lowest score a detection is reported with: low enough that AP sees the whole
+/// precision-recall curve, high enough to keep the list short.
+pub const DEFAULT_MIN_SCORE: f32 = 0.05;
+
+/// The name of COCO category `id` (1..=10 the object classes, 11 threshold).
+#[must_use]
+pub fn category_name(id: u32) -> &'static str {
+    match id {
+        11 => "threshold",
+        _ => {
+            scene_gen_scene::scene::ObjectClass::ALL.get((id as usize).wrapping_sub(1)).map_or("unknown", |c| c.name())
+        }
+    }
+}
+
+/// Why the detector could not be built or run.
+#[derive(Debug, thiserror::Error)]
+pub enum CnnError {
+    #[error("detector weights: {0}")]
+    Weights(String),
+    #[error("detector network: {0}")]
+    Network(#[from] candle_core::Error),
+    #[error("image is {width}x{height} with {channels} channels but holds {len} bytes")]
+    BadImage { width: usize, height: usize, channels: usize, len: usize },
+}
+
+/// The trained network, ready to detect.
+#[derive(Debug)]
+pub struct CnnDetector {
+    network: Network,
+    /// Reported detections score at least this.
+    pub min_score: f32,
+}
+
+impl CnnDetector {
+    /// The detector over the project's trained weights.
+    ///
+    /// # Errors
+    /// [`CnnError::Weights`] if this build carries no valid weights.
+    pub fn embedded() -> Result<CnnDetector, CnnError> {
+        CnnDetector::from_safetensors(EMBEDDED_WEIGHTS)
+    }
+
+    /// The detector over weights in safetensors form (as [`train::train`] writes them).
+    ///
+    /// # Errors
+    /// [`CnnError::Weights`] for a file that is not safetensors or lacks a layer.
+    pub fn from_safetensors(bytes: &[u8]) -> Result<CnnDetector, CnnError> {
+        let weights: HashMap<String, Tensor> =
+            candle_core::safetensors::load_buffer(bytes, &Device::Cpu).map_err(|e| CnnError::Weights(e.to_string()))?;
+        let network = Network::from_weights(&weights).map_err(CnnError::Weights)?;
+        Ok(CnnDetector { network, min_score: DEFAULT_MIN_SCORE })
+    }
+
+    /// Detections in one 8-bit image, best first.
+    ///
+    /// # Errors
+    /// [`CnnError::BadImage`] for a buffer that does not match its size; candle's errors.
+    pub fn detect(&self, image: ImageView<'_>) -> Result<Vec<Detection>, CnnError> {
+        let expected = image.width * image.height * image.channels;
+        if image.pixels.len() != expected || !matches!(image.channels, 1 | 3) || image.width == 0 || image.height == 0 {
+            return Err(CnnError::BadImage {
+                width: image.width,
+                height: image.height,
+                channels: image.channels,
+                len: image.pixels.len(),
+            });
+        }
+        let padded = (network::padded(image.width), network::padded(image.height));
+        let input = network::input_tensor(&[image], padded)?;
+        let out = self.network.forward(&input)?;
+        let heat = candle_nn::ops::sigmoid(&out.heat_logits)?.flatten_all()?.to_vec1::<f32>()?;
+        let boxes = out.boxes.flatten_all()?.to_vec1::<f32>()?;
+        let cells = (padded.0 / network::STRIDE_PX, padded.1 / network::STRIDE_PX);
+        Ok(decode(&heat, &boxes, cells, (image.width, image.height), self.min_score))
+    }
+}
