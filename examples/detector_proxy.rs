@@ -10,6 +10,7 @@
 use scene_gen::camera_spec::CameraSpec;
 use scene_gen::evaluate::{DetectorChoice, EvalConfig, evaluate};
 use scene_gen::seeds::SeedRange;
+use scene_gen::stats::spearman;
 
 /// Sensors from small to large pixels, focal lengths from very wide to narrow, pitches,
 /// apertures and night gains: cameras the optimizer could propose.
@@ -39,37 +40,6 @@ const CANDIDATES: [&str; 24] = [
     "IMX287,focal_mm=3,pitch_deg=0",
     "IMX420,focal_mm=14,pitch_deg=-25",
 ];
-
-/// Ranks with ties given their mean rank.
-fn ranks(values: &[f64]) -> Vec<f64> {
-    let mut order: Vec<usize> = (0..values.len()).collect();
-    order.sort_by(|&a, &b| values[a].total_cmp(&values[b]));
-    let mut out = vec![0.0; values.len()];
-    let mut i = 0;
-    while i < order.len() {
-        let mut j = i;
-        while j + 1 < order.len() && values[order[j + 1]] == values[order[i]] {
-            j += 1;
-        }
-        let mean = (i + j) as f64 / 2.0 + 1.0;
-        for &k in &order[i..=j] {
-            out[k] = mean;
-        }
-        i = j + 1;
-    }
-    out
-}
-
-/// Spearman's rho: Pearson's correlation of the ranks.
-fn spearman(a: &[f64], b: &[f64]) -> f64 {
-    let (ra, rb) = (ranks(a), ranks(b));
-    let n = ra.len() as f64;
-    let (ma, mb) = (ra.iter().sum::<f64>() / n, rb.iter().sum::<f64>() / n);
-    let cov: f64 = ra.iter().zip(&rb).map(|(x, y)| (x - ma) * (y - mb)).sum();
-    let va: f64 = ra.iter().map(|x| (x - ma).powi(2)).sum();
-    let vb: f64 = rb.iter().map(|y| (y - mb).powi(2)).sum();
-    cov / (va * vb).sqrt()
-}
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();

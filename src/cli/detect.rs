@@ -140,8 +140,14 @@ pub struct TrainArgs {
 pub fn run_detector(args: &DetectorArgs) -> Result<(), CliError> {
     match &args.command {
         DetectorCommand::Train(t) => {
-            if t.epochs == 0 || t.batch == 0 || !(t.learning_rate > 0.0 && t.learning_rate.is_finite()) {
-                return Err(bad_input(anyhow!("--epochs, --batch and --learning-rate must be positive")));
+            for (name, ok) in [
+                ("--epochs", t.epochs > 0),
+                ("--batch", t.batch > 0),
+                ("--learning-rate", t.learning_rate > 0.0 && t.learning_rate.is_finite()),
+            ] {
+                if !ok {
+                    return Err(bad_input(anyhow!("{name} must be positive")));
+                }
             }
             let config = TrainConfig {
                 data: t.data.clone(),

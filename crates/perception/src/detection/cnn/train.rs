@@ -57,6 +57,8 @@ pub enum TrainError {
     Data { path: PathBuf, why: String },
     #[error("training: {0}")]
     Network(#[from] candle_core::Error),
+    #[error("training: {0}")]
+    Internal(String),
     #[error("writing {path}: {source}")]
     Write { path: PathBuf, source: std::io::Error },
     #[error("{0}")]
@@ -279,9 +281,8 @@ pub fn fit(
         Network::parameter_count()
     ));
     let vars = Network::init_vars(config.seed)?;
-    let internal = |why: String| TrainError::Data { path: config.out.clone(), why };
-    let network = Network::from_vars(&vars).map_err(internal)?;
-    let mut norms = BatchNorms::from_vars(&vars).map_err(internal)?;
+    let network = Network::from_vars(&vars).map_err(TrainError::Internal)?;
+    let mut norms = BatchNorms::from_vars(&vars).map_err(TrainError::Internal)?;
     let params = ParamsAdamW { lr: config.learning_rate, weight_decay: 1e-4, ..ParamsAdamW::default() };
     let mut optimizer = AdamW::new(vars.iter().map(|(_, v)| v.clone()).collect(), params)?;
     let mut rng = ChaCha8Rng::seed_from_u64(config.seed ^ 0x5eed_da7a);
@@ -322,7 +323,7 @@ pub fn fit(
             }
         }
         let weights_path = config.out.join(WEIGHTS_FILE);
-        let weights = norms.folded_weights(&vars).map_err(internal)?;
+        let weights = norms.folded_weights(&vars).map_err(TrainError::Internal)?;
         candle_core::safetensors::save(&weights, &weights_path)?;
         std::fs::write(config.out.join("train_log.tsv"), &log).map_err(write_error(&config.out))?;
         if let Some(parts) = validation {
