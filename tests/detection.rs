@@ -200,6 +200,36 @@ fn ap_falls_as_objects_shrink() {
     assert!(aps[0] > 0.9 && aps[4] < 0.3, "AP50 by size {aps:?}");
 }
 
+/// The terms a fit to a learned detector may switch on: a box that reaches the image border is
+/// scaled by the truncation factor and an occluded object by its visible fraction to the
+/// exponent; at their defaults the Johnson model is unchanged.
+#[test]
+fn truncation_and_occlusion_scale_the_probability_of_the_objects_they_concern() {
+    let mut s = synthetic(8, 20.0, 5);
+    // Object 1 moved to the left edge, object 2 half hidden.
+    s.objects[0].bbox[0] = 0.0;
+    s.objects[1].visible_fraction = 0.5;
+    let input = DetectorInput {
+        image_dn: &s.image,
+        width: s.width,
+        height: s.height,
+        instance_id: &s.ids,
+        objects: &s.objects,
+        noise: NoiseSource::Uniform(20.0),
+        frame_seed: 1,
+    };
+    let sigma = input.noise.table(&input);
+    let p = |m: &DetectabilityModel, i: usize| m.object_probability(&input, &s.objects[i], &sigma);
+    let plain = DetectabilityModel::default();
+    let fitted = DetectabilityModel { truncated_factor: 0.5, occlusion_exponent: 2.0, ..plain };
+    for i in 0..3 {
+        assert!(p(&plain, i) > 0.05 && p(&plain, i) < 0.95, "object {i}: P {} should be informative", p(&plain, i));
+    }
+    assert!((p(&fitted, 0) - 0.5 * p(&plain, 0)).abs() < 1e-12, "truncated");
+    assert!((p(&fitted, 1) - 0.25 * p(&plain, 1)).abs() < 1e-12, "half hidden, exponent 2");
+    assert_eq!(p(&fitted, 2), p(&plain, 2), "inside the frame and unoccluded");
+}
+
 #[test]
 fn false_positives_only_on_clutter_and_deterministic() {
     let mut s = synthetic(20, 1.0, 3);

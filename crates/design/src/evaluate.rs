@@ -306,6 +306,10 @@ pub struct EvalConfig {
     pub min_usable_images: Option<u32>,
     /// The detector of the detection task.
     pub detector: DetectorChoice,
+    /// The built-in detector's parameters, when [`DetectorChoice::Model`] is the detector (left
+    /// out of the record when default).
+    #[serde(skip_serializing_if = "is_default_detectability")]
+    pub detectability: DetectabilityModel,
     pub weights: FitnessWeights,
     /// The houses: envelope, smallest room, libraries (left out of the record when default).
     #[serde(skip_serializing_if = "HouseOptions::is_default")]
@@ -325,10 +329,15 @@ impl Default for EvalConfig {
             output: OutputRule::Isp,
             min_usable_images: None,
             detector: DetectorChoice::default(),
+            detectability: DetectabilityModel::default(),
             weights: FitnessWeights::default(),
             house: HouseOptions::default(),
         }
     }
+}
+
+fn is_default_detectability(model: &DetectabilityModel) -> bool {
+    *model == DetectabilityModel::default()
 }
 
 /// Scores of one scenario.
@@ -815,7 +824,7 @@ fn render_pose(
     out.times[1] += secs(t1);
     if let Some(objects) = &gt {
         let t1 = Instant::now();
-        let detector = DetectabilityModel::default();
+        let detector = config.detectability;
         for (s, image) in images.iter().enumerate() {
             let grey = &image.grey;
             out.usable.push(image_usable(grey) && objects.iter().any(|o| o.counted));

@@ -38,6 +38,12 @@
 //!    ECOM-7043, 1975; the ACQUIRE form). `N50` is the cycles across the critical dimension for
 //!    a 50 % chance ([`DEFAULT_N50_CYCLES`]).
 //!
+//! 5. **Truncation and occlusion**, off by default: `P` is multiplied by
+//!    [`DetectabilityModel::truncated_factor`] when the object's visible box reaches the image
+//!    border, and by `visible_fraction ^` [`DetectabilityModel::occlusion_exponent`]. A learned
+//!    detector recognises a shape, and a cut or hidden one is harder than its pixel count
+//!    says; `examples/detector_proxy.rs` fits both, with `N50`, to the learned detector.
+//!
 //! Each object is then detected with probability `P`: it is found when `P > u`, with `u`
 //! uniform from the stream of (`frame_seed`, instance id); a detection carries `score = P` and
 //! the visible box with each edge moved by a normal localisation error of standard deviation
@@ -174,7 +180,7 @@ pub trait Detector {
 }
 
 /// The Johnson-criteria detectability model of the module docs.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct DetectabilityModel {
     /// Cycles across the critical dimension for P = 0.5.
     pub n50_cycles: f64,
@@ -190,6 +196,15 @@ pub struct DetectabilityModel {
     pub max_false_positive_score: f64,
     /// Clutter cell side at 640 x 480, px.
     pub clutter_cell_px_vga: f64,
+    /// `P` of an object cut by the image border (its visible box touches an edge) is multiplied
+    /// by this: a learned detector sees only part of the shape it was trained on. 1 (the
+    /// default) leaves the Johnson model as it is; `examples/detector_proxy.rs` fits it.
+    pub truncated_factor: f64,
+    /// `P` is multiplied by `visible_fraction ^ occlusion_exponent`: an object partly hidden
+    /// behind another is harder to recognise than its visible pixels alone say. 0 (the default)
+    /// leaves the Johnson model as it is, whose critical dimension already shrinks with
+    /// occlusion.
+    pub occlusion_exponent: f64,
 }
 
 impl Default for DetectabilityModel {
@@ -210,6 +225,8 @@ impl DetectabilityModel {
             false_positive_rate: 0.02,
             max_false_positive_score: 0.5,
             clutter_cell_px_vga: 32.0,
+            truncated_factor: 1.0,
+            occlusion_exponent: 0.0,
         }
     }
 
@@ -314,6 +331,11 @@ pub fn object_cnr(input: &DetectorInput<'_>, object: &GtObject, sigma_by_level: 
     contrast / sigma
 }
 
+/// Whether a visible box `[x, y, w, h]` reaches an edge of the `width x height` image.
+fn touches_border([x, y, w, h]: [f64; 4], width: u32, height: u32) -> bool {
+    x <= 0.5 || y <= 0.5 || x + w >= f64::from(width) - 0.5 || y + h >= f64::from(height) - 0.5
+}
+
 fn jitter_box(b: [f64; 4], model: &DetectabilityModel, width: u32, height: u32, rng: &mut impl Rng) -> [f64; 4] {
     let sx = model.loc_error_px + model.loc_error_fraction * b[2];
     let sy = model.loc_error_px + model.loc_error_fraction * b[3];
@@ -360,7 +382,15 @@ impl DetectabilityModel {
     /// `sigma_by_level` ([`NoiseSource::table`]).
     #[must_use]
     pub fn object_probability(&self, input: &DetectorInput<'_>, object: &GtObject, sigma_by_level: &[f64]) -> f64 {
-        self.probability(f64::from(object.visible_px).sqrt(), object_cnr(input, object, sigma_by_level))
+        let p = self.probability(f64::from(object.visible_px).sqrt(), object_cnr(input, object, sigma_by_level));
+        let truncated =
+            if touches_border(object.bbox, input.width, input.height) { self.truncated_factor } else { 1.0 };
+        let occluded = if self.occlusion_exponent == 0.0 {
+            1.0
+        } else {
+            object.visible_fraction.clamp(0.0, 1.0).powf(self.occlusion_exponent)
+        };
+        (p * truncated * occluded).clamp(0.0, 1.0)
     }
 
     fn false_positives(&self, input: &DetectorInput<'_>, sigma_by_level: &[f64], out: &mut Vec<Detection>) {
