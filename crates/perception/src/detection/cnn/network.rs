@@ -30,7 +30,8 @@ pub const BOX_CHANNELS: usize = 4;
 type LayerSpec = (&'static str, usize, usize, usize, usize);
 
 /// Every layer, in the order [`Network::forward`] runs them. All but the last two (the heads)
-/// are batch-normalised in training.
+/// are batch-normalised in training. `scripts/train_detector.py` holds the same table: change
+/// both together.
 const LAYERS: [LayerSpec; 14] = [
     ("stem", 3, 12, 3, 2),
     ("s4a", 12, 24, 3, 2),
