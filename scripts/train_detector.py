@@ -141,24 +141,45 @@ def encode(boxes, cells_w, cells_h):
     return heat, box, mask
 
 
+def bad_input(message):
+    """Stops on unusable input: the message on stderr, exit status 2, nothing written."""
+    print(f"error: {message}", file=sys.stderr)
+    sys.exit(2)
+
+
+def annotation_files(folder):
+    """The COCO files of a dataset folder, or a bad-input stop when it has none."""
+    files = sorted((Path(folder) / "annotations").glob("instances_*.json"))
+    if not files:
+        bad_input(f"{Path(folder) / 'annotations'}: no instances_*.json (not a scene-gen dataset folder)")
+    return files
+
+
 def load_dataset(folder):
     """(pixels [3, H, W] uint8, boxes [(class, x, y, w, h)]) of every image of a dataset folder."""
     folder = Path(folder)
     samples = []
-    for ann in sorted((folder / "annotations").glob("instances_*.json")):
-        coco = json.loads(ann.read_text())
-        by_image = {}
-        for a in coco["annotations"]:
-            if a.get("iscrowd", 0) == 0 and 1 <= a["category_id"] <= NUM_CLASSES:
-                by_image.setdefault(a["image_id"], []).append((a["category_id"] - 1, *a["bbox"]))
-        for image in coco["images"]:
-            pil = Image.open(folder / "images" / image["file_name"])
-            arr = np.asarray(pil.convert("RGB") if pil.mode in ("RGB", "RGBA") else pil.convert("L"))
+    for ann in annotation_files(folder):
+        try:
+            coco = json.loads(ann.read_text())
+            by_image = {}
+            for a in coco["annotations"]:
+                if a.get("iscrowd", 0) == 0 and 1 <= a["category_id"] <= NUM_CLASSES:
+                    by_image.setdefault(a["image_id"], []).append((a["category_id"] - 1, *a["bbox"]))
+            images = [(folder / "images" / i["file_name"], i["id"]) for i in coco["images"]]
+        except (OSError, ValueError, KeyError, TypeError) as e:
+            bad_input(f"{ann}: {e}")
+        for path, image_id in images:
+            try:
+                pil = Image.open(path)
+                arr = np.asarray(pil.convert("RGB") if pil.mode in ("RGB", "RGBA") else pil.convert("L"))
+            except OSError as e:
+                bad_input(f"{path}: {e}")
             if arr.ndim == 2:
                 arr = np.repeat(arr[:, :, None], 3, axis=2)
-            samples.append((np.ascontiguousarray(arr.transpose(2, 0, 1)), by_image.get(image["id"], [])))
+            samples.append((np.ascontiguousarray(arr.transpose(2, 0, 1)), by_image.get(image_id, [])))
     if not samples:
-        sys.exit(f"{folder}: no images")
+        bad_input(f"{folder}: no images")
     return samples
 
 
@@ -239,7 +260,7 @@ def validate(weights, folder, scene_gen):
 
     folder = Path(folder)
     scores = []
-    for ann in sorted((folder / "annotations").glob("instances_*.json")):
+    for ann in annotation_files(folder):
         coco = json.loads(ann.read_text())
         files = [str(folder / "images" / i["file_name"]) for i in coco["images"]]
         out = subprocess.run([scene_gen, "detect", "--json", "--weights", str(weights), *files],
@@ -284,9 +305,11 @@ def main():
     torch.set_num_threads(args.threads)
     torch.use_deterministic_algorithms(True)
     rng = np.random.default_rng(args.seed)
+    samples = [s for folder in args.data for s in load_dataset(folder)]
+    if args.validation:
+        annotation_files(args.validation)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    samples = [s for folder in args.data for s in load_dataset(folder)]
     model = Detector()
     params = sum(p.numel() for n, p in model.named_parameters() if n.startswith("convs"))
     print(f"{len(samples)} training images, {sum(len(s[1]) for s in samples)} objects; {params} parameters",

@@ -385,11 +385,8 @@ impl DetectabilityModel {
         let p = self.probability(f64::from(object.visible_px).sqrt(), object_cnr(input, object, sigma_by_level));
         let truncated =
             if touches_border(object.bbox, input.width, input.height) { self.truncated_factor } else { 1.0 };
-        let occluded = if self.occlusion_exponent == 0.0 {
-            1.0
-        } else {
-            object.visible_fraction.clamp(0.0, 1.0).powf(self.occlusion_exponent)
-        };
+        // `powf(0)` is 1 for every fraction, 0 included: the default exponent changes nothing.
+        let occluded = object.visible_fraction.clamp(0.0, 1.0).powf(self.occlusion_exponent);
         (p * truncated * occluded).clamp(0.0, 1.0)
     }
 
