@@ -13,7 +13,10 @@ scored on the held-out dataset by `scene-gen detect --json` and pycocotools, so 
 
     scripts/train_detector.py --data DIR... --validation DIR --out DIR [--epochs N]
         [--batch 16] [--learning-rate 3e-3] [--seed 0] [--threads N] [--no-augment]
-        [--scene-gen BIN]
+        [--scene-gen BIN] [--init WEIGHTS]
+
+With --init it starts from a finished `detector.safetensors` instead of random weights, its
+normalisation frozen (the file holds no statistics), for a warm restart of the schedule.
 
 Run it through `scripts/train_detector --trainer torch`, which renders the data and installs
 the pinned PyTorch into .venv-train/.
@@ -108,6 +111,41 @@ class Detector(nn.Module):
             out[f"{name}.weight"] = w.contiguous().float()
             out[f"{name}.bias"] = b.contiguous().float()
         return out
+
+    def load_folded(self, path):
+        """Starts from inference weights (a `detector.safetensors`): each convolution takes its
+        folded weights and every normalisation becomes the identity with frozen statistics, so
+        the network computes exactly what scene-gen computes from the file."""
+        from safetensors.torch import load_file
+
+        try:
+            tensors = load_file(str(path))
+        except Exception as e:  # a missing file, or not safetensors
+            bad_input(f"{path}: {e}")
+        for i, (name, *_rest) in enumerate(LAYERS):
+            for part in ("weight", "bias"):
+                key = f"{name}.{part}"
+                got = tensors.get(key)
+                want = getattr(self.convs[i], part)
+                if got is None or got.shape != want.shape:
+                    bad_input(f"{path}: tensor {key} is missing or not {tuple(want.shape)}")
+                with torch.no_grad():
+                    want.copy_(got)
+        for n in self.norms:
+            with torch.no_grad():
+                n.weight.fill_(1.0)
+                n.bias.zero_()
+                n.running_mean.zero_()
+                n.running_var.fill_(1.0 - n.eps)
+        self.frozen_norms = True
+
+    def train(self, mode=True):
+        """Training mode, except that frozen normalisations keep their statistics."""
+        super().train(mode)
+        if getattr(self, "frozen_norms", False):
+            for n in self.norms:
+                n.eval()
+        return self
 
 
 def padded(side):
@@ -296,6 +334,8 @@ def main():
                     help="random zoom (0.7-1.4x) and brightness (0.7-1.4x) besides the flips")
     ap.add_argument("--max-steps", type=int, default=0, help="stop after this many steps (timing runs)")
     ap.add_argument("--scene-gen", default="target/release/scene-gen")
+    ap.add_argument("--init", help="start from these weights (a detector.safetensors) with the "
+                    "normalisation frozen, as a warm restart of the schedule")
     args = ap.parse_args()
     for name in ("epochs", "batch", "threads"):
         if getattr(args, name) < 1:
@@ -308,9 +348,11 @@ def main():
     samples = [s for folder in args.data for s in load_dataset(folder)]
     if args.validation:
         annotation_files(args.validation)
+    model = Detector()
+    if args.init:
+        model.load_folded(args.init)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    model = Detector()
     params = sum(p.numel() for n, p in model.named_parameters() if n.startswith("convs"))
     print(f"{len(samples)} training images, {sum(len(s[1]) for s in samples)} objects; {params} parameters",
           flush=True)

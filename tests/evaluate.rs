@@ -5,16 +5,23 @@
 use std::process::Command;
 
 use scene_gen::camera_spec::CameraSpec;
-use scene_gen::evaluate::{EvalConfig, Evaluation, evaluate, evaluate_traced, evaluate_uncached};
+use scene_gen::evaluate::{DetectorChoice, EvalConfig, Evaluation, evaluate, evaluate_traced, evaluate_uncached};
 use scene_gen::isp::OutputRule;
 
 const SEED: u64 = 0;
 /// The default camera of the issue: IMX174, 4 mm, pitched 10 deg down, 0.8 m high.
 const DEFAULT_CAMERA: &str = "IMX174,focal_mm=4,pitch_deg=-10";
 
-/// 160 px wide (ORB needs room inside its 31 px border), 6 anchors.
+/// 160 px wide (ORB needs room inside its 31 px border), 6 anchors, and the detectability
+/// model: these tests are about the evaluator, whose detection half the model scores from the
+/// ground truth on frames too small for the learned detector (tests/detector.rs covers it).
 fn small() -> EvalConfig {
-    EvalConfig { frames_per_scene: 6, max_width_px: Some(160), ..EvalConfig::default() }
+    EvalConfig {
+        frames_per_scene: 6,
+        max_width_px: Some(160),
+        detector: DetectorChoice::Model,
+        ..EvalConfig::default()
+    }
 }
 
 fn spec(text: &str) -> CameraSpec {
@@ -243,6 +250,8 @@ fn json_output_has_exactly_the_documented_keys() {
     assert_eq!(v["seeds"], serde_json::json!([0]));
     assert_eq!(v["config"]["speed_m_s"], serde_json::json!(1.0));
     assert_eq!(v["config"]["output"], serde_json::json!("isp"));
+    // The learned detector is the default; the model is named when chosen.
+    assert_eq!(v["config"]["detector"], serde_json::json!("cnn"));
     for s in ["day", "night"] {
         let sc = &v["scenarios"][s];
         for k in [

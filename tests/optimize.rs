@@ -239,9 +239,11 @@ fn cli(args: &[&str], stop_after: Option<usize>) -> std::process::Output {
     cmd.output().expect("scene-gen runs")
 }
 
+/// A task small enough for a test: 96 px frames, too small for the learned detector, so the
+/// detectability model scores detection.
 const TINY: &str = "seed = 3\n\
 [ga]\npopulation = 4\ngenerations = 2\nparents = 2\nelites = 1\n\
-[evaluation]\nseeds = [0]\nframes_per_scene = 4\nmax_width_px = 96\n";
+[evaluation]\nseeds = [0]\nframes_per_scene = 4\nmax_width_px = 96\ndetector = \"model\"\n";
 
 fn write_config(name: &str, text: &str) -> PathBuf {
     let path = fresh_dir(name).with_extension("toml");
@@ -276,7 +278,7 @@ fn cli_run_resumes_to_the_same_bytes_and_its_best_camera_loads() {
     assert_eq!(rows.len(), 2);
     let out = Command::new(env!("CARGO_BIN_EXE_scene-gen"))
         .args(["evaluate", "--camera", best.to_str().unwrap(), "--seeds", "0", "--frames", "4", "--max-width", "96"])
-        .args(["--json"])
+        .args(["--detector", "model", "--json"])
         .output()
         .unwrap();
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
@@ -313,5 +315,13 @@ fn cli_refuses_bad_configs_and_foreign_folders_with_exit_2() {
     let out =
         cli(&["--config", config.to_str().unwrap(), "--out", out_dir.to_str().unwrap(), "--method", "random"], None);
     assert_eq!(out.status.code(), Some(2));
+    // `--detector` overrides the configuration's detector, so it is another configuration too.
+    let out =
+        cli(&["--config", config.to_str().unwrap(), "--out", out_dir.to_str().unwrap(), "--detector", "cnn"], None);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("different configuration"));
+    let out = cli(&["--config", config.to_str().unwrap(), "--out", out_dir.to_str().unwrap(), "--detector", " "], None);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--detector"));
     assert_eq!(std::fs::read(out_dir.join("state.json")).unwrap(), before);
 }

@@ -43,6 +43,7 @@ fn a_server_answers_every_line_in_order_survives_bad_requests_and_caches() {
     assert!(describe["sensors"].as_array().unwrap().iter().any(|s| s == "IMX174"));
     assert_eq!(describe["defaults"]["frames"], 2);
     assert_eq!(describe["defaults"]["max_width"], 64);
+    assert_eq!(describe["defaults"]["detector"], "cnn");
 
     let good = r#"{"sensor": "IMX174", "focal_mm": 2, "pitch_deg": -20}"#;
     let lines = [
@@ -117,10 +118,39 @@ fn empty_input_exits_zero_with_no_output() {
 
 #[test]
 fn bad_defaults_are_usage_errors() {
-    for args in [["--frames", "0"], ["--max-width", "0"], ["--seeds", "5..2"], ["--seeds", "x"]] {
+    for args in [["--frames", "0"], ["--max-width", "0"], ["--seeds", "5..2"], ["--seeds", "x"], ["--detector", " "]] {
         let out = serve_cmd(&args).stdin(Stdio::null()).output().unwrap();
         assert_eq!(out.status.code(), Some(2), "{args:?}");
         assert!(out.stdout.is_empty());
         assert!(!out.stderr.is_empty());
     }
+}
+
+#[test]
+fn the_detector_option_reaches_every_request() {
+    let out = serve_cmd(&["--seeds", "0", "--frames", "2", "--max-width", "64", "--detector", "model"])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .spawn()
+        .and_then(|mut child| {
+            let mut stdin = child.stdin.take().unwrap();
+            writeln!(stdin, r#"{{"id": 0, "op": "describe"}}"#).unwrap();
+            writeln!(stdin, r#"{{"id": 1, "camera": "IMX174,focal_mm=4"}}"#).unwrap();
+            drop(stdin);
+            child.wait_with_output()
+        })
+        .unwrap();
+    assert!(out.status.success());
+    let answers: Vec<Value> =
+        String::from_utf8_lossy(&out.stdout).lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    assert_eq!(answers[0]["defaults"]["detector"], "model");
+    assert_eq!(answers[1]["ok"], true, "{}", answers[1]);
+    // The same request through `evaluate --detector model` gives the same scores.
+    let direct = Command::new(env!("CARGO_BIN_EXE_scene-gen"))
+        .args(["evaluate", "--camera", "IMX174,focal_mm=4", "--seeds", "0", "--frames", "2", "--max-width", "64"])
+        .args(["--detector", "model", "--json"])
+        .output()
+        .unwrap();
+    let direct: Value = serde_json::from_slice(&direct.stdout).unwrap();
+    assert_eq!(answers[1]["scenarios"], direct["scenarios"]);
 }

@@ -50,7 +50,7 @@ def evaluate(
     ``scene-gen evaluate --json`` does: threshold sightings in time, detection AP@0.5 and ORB
     tracking per scenario, and the fitness (``result["fitness"]["mean"]``). ``frames`` anchor
     frames per house and ``max_width`` the binned width default to the evaluator's; ``detector``
-    is ``"model"`` (the fast detectability model, the default), ``"cnn"`` (the learned detector)
+    is ``"cnn"`` (the learned detector, the default), ``"model"`` (the fast detectability model)
     or a plug-in command (the plug-in protocol)."""
     result = _native.evaluate(
         _camera(camera),

@@ -18,6 +18,7 @@ def test_evaluate_matches_the_command_line(cli):
                          progress=lambda done, planned: calls.append((done, planned)))
     assert result == expected
     assert 0 <= result["fitness"]["mean"] and result["seeds"] == [0, 1]
+    assert result["config"]["detector"] == "cnn"  # the learned detector is the default
     assert calls and calls[-1][0] == calls[-1][1] == len(calls)
 
 

@@ -37,8 +37,9 @@ pub struct EvaluateArgs {
     /// anchor frames, rounded up).
     #[arg(long)]
     pub min_usable: Option<u32>,
-    /// The detector: `model` (the fast detectability model, default), `cnn` (the learned
-    /// detector on each 8-bit frame), or an external command (split on whitespace) run under
+    /// The detector: `cnn` (the learned detector on each 8-bit frame, default), `model` (the
+    /// fast detectability model, about 1.3x quicker, reading the ground truth), or an external
+    /// command (split on whitespace) run under
     /// the plug-in protocol on the anchor frames, where `{gt}` is replaced by the COCO
     /// ground-truth file written next to them.
     #[arg(long)]

@@ -2,7 +2,9 @@
 
 use std::path::PathBuf;
 
+use anyhow::anyhow;
 use clap::{Args, ValueEnum};
+use scene_gen::evaluate::DetectorChoice;
 use scene_gen::optimize::config::OptimizeConfig;
 use scene_gen::optimize::run::{Method, Progress as OptimizeProgress, RunOptions, check_dir, run as run_dir};
 use scene_gen::optimize::{EvalObjective, Objective};
@@ -31,6 +33,10 @@ pub struct OptimizeArgs {
     /// Search method.
     #[arg(long, value_enum, default_value = "ga")]
     pub method: MethodArg,
+    /// The detector, over the configuration's `evaluation.detector`: `cnn`, `model` or an
+    /// external command.
+    #[arg(long)]
+    pub detector: Option<String>,
     /// The houses candidates are evaluated in; each option given overrides the configuration's
     /// `[house]` value.
     #[command(flatten)]
@@ -49,6 +55,12 @@ pub fn run(args: &OptimizeArgs) -> Result<(), CliError> {
         None => OptimizeConfig::default(),
     };
     config.house = check(args.house.over(config.house))?;
+    if let Some(detector) = &args.detector {
+        if DetectorChoice::parse(detector).is_none() {
+            return Err(bad_input(anyhow!("--detector: the command is empty")));
+        }
+        config.evaluation.detector = detector.trim().to_string();
+    }
     let method = match args.method {
         MethodArg::Ga => Method::Ga,
         MethodArg::Random => Method::Random,

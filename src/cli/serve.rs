@@ -5,6 +5,7 @@ use std::io::IsTerminal;
 
 use anyhow::anyhow;
 use clap::Args;
+use scene_gen::evaluate::DetectorChoice;
 use scene_gen::serve::{PROTOCOL, ServeDefaults, parse_seeds, serve};
 
 use super::house::HouseArgs;
@@ -22,6 +23,10 @@ pub struct ServeArgs {
     /// `max_width_px` wins).
     #[arg(long, default_value_t = scene_gen::evaluate::DEFAULT_MAX_WIDTH_PX)]
     pub max_width: u32,
+    /// The detector of every request: `cnn` (the learned detector), `model` (the fast
+    /// detectability model) or an external command.
+    #[arg(long, default_value = "cnn")]
+    pub detector: String,
     /// The houses every request is evaluated in.
     #[command(flatten)]
     pub house: HouseArgs,
@@ -36,7 +41,9 @@ pub fn run(args: &ServeArgs) -> Result<(), CliError> {
         return Err(bad_input(anyhow!("--max-width must be at least 1")));
     }
     let house = args.house.checked()?;
-    let defaults = ServeDefaults { seeds, frames: args.frames, max_width: args.max_width, house };
+    let detector =
+        DetectorChoice::parse(&args.detector).ok_or_else(|| bad_input(anyhow!("--detector: the command is empty")))?;
+    let defaults = ServeDefaults { seeds, frames: args.frames, max_width: args.max_width, house, detector };
     let stdin = std::io::stdin();
     if stdin.is_terminal() {
         eprintln!(

@@ -3,7 +3,7 @@
 # daylight frames of houses 8..11 through the default camera (training used houses 1000..1147),
 # `scene-gen detect --json` answers for every image, and COCOeval (bbox, area all, 100
 # detections) gives AP@0.5 overall and per class. Fails below the floor FLOOR (default 0.3: the
-# built-in weights score 0.593 here, an untrained network about 0.001; the model card has the
+# built-in weights score 0.588 here, an untrained network about 0.001; the model card has the
 # figures). Uses target/release/scene-gen (BIN= overrides).
 set -euo pipefail
 cd "$(dirname "$0")/../.."

@@ -33,11 +33,11 @@
 //! * **AP@0.5** of the detector against the instance buffer's ground truth
 //!   ([`frame_ground_truth`]), [`coco_eval::evaluate`] over every anchor of every seed (an AP
 //!   of -1, no ground truth at all, counts as 0). The detector ([`EvalConfig::detector`]) is
-//!   the built-in [`DetectabilityModel`] (the default), told the camera's noise at each output
-//!   level (`detection::output_noise`) and drawing with one seed per pose for both scenarios;
-//!   the learned detector (`--detector cnn`, `detection::cnn`) on each anchor's 8-bit image,
-//!   sRGB for a colour camera; or an external program ([`EvalConfig::detector`], `--detector "CMD ARGS"`) run once per
-//!   evaluation under the plug-in protocol of `scene_gen_perception::detection`, on the
+//!   the learned detector (the default, `detection::cnn`) on each anchor's 8-bit image, sRGB
+//!   for a colour camera; the built-in [`DetectabilityModel`] (`--detector model`), told the
+//!   camera's noise at each output level (`detection::output_noise`) and drawing with one seed
+//!   per pose for both scenarios; or an external program (`--detector "CMD ARGS"`) run once
+//!   per evaluation under the plug-in protocol of `scene_gen_perception::detection`, on the
 //!   anchors' 8-bit PNGs with a COCO ground-truth file beside them (`{gt}` in the command).
 //! * **ORB** (2000 features, cross-checked matches, fundamental RANSAC at 3 px) on each
 //!   (anchor, successor) pair: mean inliers per pair and the mean inlier ratio
@@ -232,15 +232,19 @@ impl ExternalDetector {
 
 /// Which detector scores the detection task.
 ///
-/// In `evaluate`'s JSON record (`config.detector`) the model is `null` and an external program
-/// its `{program, args}` object, as they always were; the learned detector is `"cnn"`.
+/// In `evaluate`'s JSON record (`config.detector`) the learned detector is `"cnn"`, the model
+/// `"model"` and an external program its `{program, args}` object.
+///
+/// The learned detector is the default since release 0.5.0: it detects objects in the frames
+/// the camera makes, at 1.3x the model's evaluation time (docs/BENCHMARKS.md, "The learned
+/// detector"). The model reads the ground truth and is the fast screen.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub enum DetectorChoice {
     /// The built-in [`DetectabilityModel`]: a detection probability from object size and
     /// contrast-to-noise, drawn per object (fast; reads the ground truth).
-    #[default]
     Model,
     /// The learned detector ([`scene_gen_perception::detection::cnn`]) on each 8-bit image.
+    #[default]
     Cnn,
     /// An external program under the plug-in protocol.
     External(ExternalDetector),
@@ -271,7 +275,7 @@ impl DetectorChoice {
 impl Serialize for DetectorChoice {
     fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
         match self {
-            DetectorChoice::Model => serializer.serialize_none(),
+            DetectorChoice::Model => serializer.serialize_str("model"),
             DetectorChoice::Cnn => serializer.serialize_str("cnn"),
             DetectorChoice::External(program) => program.serialize(serializer),
         }

@@ -52,7 +52,7 @@
 //!  "genes": {"sensor": {"type": "categorical", "choices": "sensors"},
 //!            "focal_mm": {"type": "float", "min": 1.0, "max": 20.0},
 //!            "pitch_deg": {"type": "float", "min": -30.0, "max": 30.0}},
-//!  "defaults": {"seeds": [0], "frames": 25, "max_width": 320},
+//!  "defaults": {"seeds": [0], "frames": 25, "max_width": 320, "detector": "cnn"},
 //!  "weights": {"threshold": 1.0, "ap50": 1.0, "inliers": 0.0025, "inlier_ratio": 0.5}}
 //! ```
 //!
@@ -85,7 +85,7 @@ use std::time::Instant;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
-use crate::evaluate::{self, EvalConfig, EvalError, Fitness, FitnessWeights, Scenarios};
+use crate::evaluate::{self, DetectorChoice, EvalConfig, EvalError, Fitness, FitnessWeights, Scenarios};
 use scene_gen_camera::camera_spec::{CameraSpec, SpecError};
 use scene_gen_camera::sensor::Catalog;
 use scene_gen_core::seeds::SeedRange;
@@ -111,6 +111,8 @@ pub struct ServeDefaults {
     pub max_width: u32,
     /// The houses every request is evaluated in (`serve --envelope ...`).
     pub house: HouseOptions,
+    /// The detector of every request (`serve --detector`).
+    pub detector: DetectorChoice,
 }
 
 impl Default for ServeDefaults {
@@ -121,6 +123,7 @@ impl Default for ServeDefaults {
             frames: evaluate::DEFAULT_FRAMES_PER_SCENE,
             max_width: evaluate::DEFAULT_MAX_WIDTH_PX,
             house: HouseOptions::default(),
+            detector: DetectorChoice::default(),
         }
     }
 }
@@ -215,6 +218,7 @@ pub struct Job {
     pub max_width: u32,
     pub weights: FitnessWeights,
     pub house: HouseOptions,
+    pub detector: DetectorChoice,
 }
 
 impl Job {
@@ -226,6 +230,7 @@ impl Job {
             max_width_px: Some(self.max_width),
             weights: self.weights,
             house: self.house.clone(),
+            detector: self.detector.clone(),
             ..EvalConfig::default()
         }
     }
@@ -276,6 +281,7 @@ pub struct DefaultsOut {
     pub max_width: u32,
     #[serde(skip_serializing_if = "HouseOptions::is_default")]
     pub house: HouseOptions,
+    pub detector: DetectorChoice,
 }
 
 /// A describe answer.
@@ -408,7 +414,15 @@ pub fn job_of(request: &Request, defaults: &ServeDefaults, catalog: &Catalog) ->
     let camera = camera_of(camera_field, catalog)?;
     // The request's width wins, then the camera's own, then the server's.
     let max_width = if request.max_width.is_some() { max_width } else { camera.max_width_px.unwrap_or(max_width) };
-    Ok(Job { camera, seeds, frames, max_width, weights, house: defaults.house.clone() })
+    Ok(Job {
+        camera,
+        seeds,
+        frames,
+        max_width,
+        weights,
+        house: defaults.house.clone(),
+        detector: defaults.detector.clone(),
+    })
 }
 
 /// The describe answer.
@@ -430,6 +444,7 @@ pub fn describe(id: Value, defaults: &ServeDefaults, catalog: &Catalog) -> Descr
             frames: defaults.frames,
             max_width: defaults.max_width,
             house: defaults.house.clone(),
+            detector: defaults.detector.clone(),
         },
         weights: FitnessWeights::default(),
     }
@@ -702,7 +717,7 @@ mod tests {
     #[test]
     fn jobs_take_defaults_and_overrides() {
         let catalog = Catalog::embedded();
-        let defaults = ServeDefaults { seeds: vec![3, 4], frames: 6, max_width: 100, house: HouseOptions::default() };
+        let defaults = ServeDefaults { seeds: vec![3, 4], frames: 6, max_width: 100, ..ServeDefaults::default() };
         let req: Request = serde_json::from_str(r#"{"camera": "imx174,focal_mm=6"}"#).unwrap();
         let job = job_of(&req, &defaults, &catalog).unwrap();
         assert_eq!(job.camera.sensor, "IMX174", "the catalog's spelling");

@@ -10,7 +10,7 @@ use std::sync::OnceLock;
 
 use serde::{Deserialize, Serialize};
 
-use crate::evaluate::{EvalConfig, FitnessWeights};
+use crate::evaluate::{DetectorChoice, EvalConfig, FitnessWeights};
 use scene_gen_camera::camera_spec::CameraSpec;
 use scene_gen_scene::house::HouseOptions;
 
@@ -119,6 +119,10 @@ pub struct Evaluation {
     pub max_width_px: u32,
     #[serde(default = "d_fitness")]
     pub fitness: FitnessChoice,
+    /// `cnn` (the learned detector), `model` (the fast detectability model) or an external
+    /// command ([`DetectorChoice::parse`]).
+    #[serde(default = "d_detector")]
+    pub detector: String,
     #[serde(default = "d_weights")]
     pub weights: Weights,
 }
@@ -233,6 +237,9 @@ fn d_max_width() -> u32 {
 }
 fn d_fitness() -> FitnessChoice {
     embedded().evaluation.fitness
+}
+fn d_detector() -> String {
+    embedded().evaluation.detector.clone()
 }
 fn d_weights() -> Weights {
     embedded().evaluation.weights
@@ -411,6 +418,9 @@ impl OptimizeConfig {
         if ev.max_width_px == 0 {
             return bad("evaluation.max_width_px", "must be at least 1".into());
         }
+        if DetectorChoice::parse(&ev.detector).is_none() {
+            return bad("evaluation.detector", "must be \"cnn\", \"model\" or a detector command".into());
+        }
         let w = ev.weights;
         for (name, v) in
             [("threshold", w.threshold), ("ap50", w.ap50), ("inliers", w.inliers), ("inlier_ratio", w.inlier_ratio)]
@@ -435,6 +445,7 @@ impl OptimizeConfig {
                 inliers: w.inliers,
                 inlier_ratio: w.inlier_ratio,
             },
+            detector: DetectorChoice::parse(&self.evaluation.detector).unwrap_or_default(),
             house: self.house.clone(),
             ..EvalConfig::default()
         }
@@ -467,6 +478,19 @@ mod tests {
         assert!(e.contains("house") && e.contains("--min-room 1"), "{e}");
         let e = OptimizeConfig::from_toml("[house]\nenvelope = \"9x11\"\n", path).unwrap_err().to_string();
         assert!(e.contains("house.toml:2") && e.contains("WIDTHxDEPTHxHEIGHT"), "{e}");
+    }
+
+    /// `evaluation.detector` reaches the evaluator: the learned detector unless it says otherwise.
+    #[test]
+    fn detector_key_chooses_the_evaluators_detector() {
+        let path = Path::new("d.toml");
+        assert_eq!(OptimizeConfig::default().eval_config().detector, DetectorChoice::Cnn);
+        let c = OptimizeConfig::from_toml("[evaluation]\ndetector = \"model\"\n", path).unwrap();
+        assert_eq!(c.eval_config().detector, DetectorChoice::Model);
+        let c = OptimizeConfig::from_toml("[evaluation]\ndetector = \"python3 d.py --gt {gt}\"\n", path).unwrap();
+        assert_eq!(c.eval_config().detector.external().map(|e| e.program.as_str()), Some("python3"));
+        let e = OptimizeConfig::from_toml("[evaluation]\ndetector = \" \"\n", path).unwrap_err().to_string();
+        assert!(e.contains("d.toml") && e.contains("evaluation.detector"), "{e}");
     }
 
     #[test]
