@@ -63,3 +63,14 @@ fn walks_are_free_dense_and_cross_every_threshold() {
     // The placement keeps 0.8 m walkways between doors, so the nominal radius nearly always fits.
     assert!(fallbacks * 10 <= SEEDS, "{fallbacks} of {SEEDS} houses needed a smaller agent");
 }
+
+/// House 1228: a bedroom's door leaf, swung wide between its doorway and a table that stands
+/// against a bed, once closed the room's only way to its other door (no walk even for a 0.1 m
+/// agent). Leaves keep their room passable now, so the nominal agent walks the house.
+#[test]
+fn a_door_leaf_never_closes_the_way_through_its_room() {
+    let library = Library::embedded().unwrap();
+    let scene = generate(&GeneratorConfig { seed: 1228, ..GeneratorConfig::default() }, &library).unwrap();
+    check(&scene);
+    assert_eq!(plan(&scene, &TrajectoryParams::default()).unwrap().radius_m, 0.25);
+}

@@ -8,6 +8,13 @@
 //! passable: the agent walks through the middle of the doorway, and the
 //! [`trajectory`](crate::trajectory) keeps clear of leaves as it does of furniture.
 //!
+//! A leaf swung wide can still close the way past it: stood out from the wall between its
+//! doorway and a table, it can leave less than the agent's width where furniture left a
+//! walkway. So a leaf must also keep its room passable (`Passage`): an agent of the walk's
+//! radius that could go from each of the room's doorways to the others, and over the room's
+//! floor, still can. Where the drawn angle fails, the leaf closes in steps towards 90 degrees,
+//! then tries its other jamb and the other room.
+//!
 //! Leaves are hung after furniture placement (they fit around what is there) and before decor
 //! (pictures keep clear of them). All the doors of a house share one finish, as a real
 //! house's do.
@@ -39,6 +46,11 @@ const HANDLE_HEIGHT_M: f32 = 1.0;
 const MAX_OPEN_DEG: f32 = 175.0;
 /// Step of the swing test, degrees.
 const SWING_STEP_DEG: f32 = 5.0;
+/// Radius of the agent a leaf must leave room for: the walk's nominal radius
+/// (`TrajectoryParams::default().radius_m`).
+const PASSAGE_RADIUS_M: f32 = 0.25;
+/// Grid step of the passage test.
+const PASSAGE_CELL_M: f32 = 0.1;
 /// Finishes a house's doors take, one per house.
 const FINISHES: [&str; 2] = ["wood", "paint"];
 
@@ -89,6 +101,8 @@ struct RoomObstacles {
     rects: Vec<Rect>,
     /// The solids of the leaves hung already.
     hung: Vec<[Vec2; 4]>,
+    /// Where the agent can walk in the room before this leaf is hung.
+    passage: Passage,
 }
 
 impl RoomObstacles {
@@ -106,7 +120,22 @@ impl RoomObstacles {
             .iter()
             .filter(|d| d.id != door.id)
             .filter_map(|d| placement::door_clearance(d, room.id, wall_thickness_m));
-        RoomObstacles { lo, hi, rects: furniture.iter().copied().chain(clearances).collect(), hung: hung.to_vec() }
+        let entries: Vec<Vec2> = plan
+            .doors
+            .iter()
+            .filter_map(|d| {
+                let inward = d.inward(room.id)?;
+                Some(d.center.truncate() + inward * (0.5 * wall_thickness_m + PASSAGE_RADIUS_M + 0.05))
+            })
+            .collect();
+        let passage = Passage::new(lo, hi, furniture, hung, &entries);
+        RoomObstacles {
+            lo,
+            hi,
+            rects: furniture.iter().copied().chain(clearances).collect(),
+            hung: hung.to_vec(),
+            passage,
+        }
     }
 
     /// Whether `leaf` and its handles stand inside the room, clear of everything.
@@ -156,15 +185,151 @@ fn hang(
             // The swing was tested in steps: an angle between two steps may still graze a
             // corner that pokes in between them, and then the leaf stops at the step before.
             let open_deg = 90.0 + opening * (widest - 90.0);
-            let leaf = at(open_deg);
-            return Some(if obstacles.admit(&leaf) {
-                leaf
-            } else {
-                at(90.0 + ((open_deg - 90.0) / SWING_STEP_DEG).floor() * SWING_STEP_DEG)
-            });
+            let drawn = at(open_deg);
+            let mut step = ((open_deg - 90.0) / SWING_STEP_DEG).floor();
+            let mut leaf = if obstacles.admit(&drawn) { drawn } else { at(90.0 + step * SWING_STEP_DEG) };
+            // Closing towards 90 degrees until the room stays passable.
+            loop {
+                if obstacles.passage.keeps(&solids(&leaf)) {
+                    return Some(leaf);
+                }
+                if step < 0.0 {
+                    break;
+                }
+                leaf = at(90.0 + step * SWING_STEP_DEG);
+                step -= 1.0;
+            }
         }
     }
     None
+}
+
+/// The floor of one room on a [`PASSAGE_CELL_M`] grid: cells where an agent of
+/// [`PASSAGE_RADIUS_M`] stands clear of the walls, the furniture and the leaves hung already,
+/// and the cells just inside each of the room's doorways.
+struct Passage {
+    origin: Vec2,
+    width: usize,
+    height: usize,
+    blocked: Vec<bool>,
+    entries: Vec<usize>,
+    /// Component of each entry's cell (`usize::MAX`: none) and the cells the entries reach.
+    components: Vec<usize>,
+    reached: usize,
+}
+
+impl Passage {
+    fn new(lo: Vec2, hi: Vec2, furniture: &[Rect], hung: &[[Vec2; 4]], entries: &[Vec2]) -> Passage {
+        let size = hi - lo;
+        let (width, height) =
+            (((size.x / PASSAGE_CELL_M).floor() as usize).max(1), ((size.y / PASSAGE_CELL_M).floor() as usize).max(1));
+        let mut p = Passage {
+            origin: lo,
+            width,
+            height,
+            blocked: vec![false; width * height],
+            entries: Vec::new(),
+            components: Vec::new(),
+            reached: 0,
+        };
+        let r = PASSAGE_RADIUS_M;
+        for k in 0..width * height {
+            let c = p.centre(k);
+            p.blocked[k] = c.x < lo.x + r || c.x > hi.x - r || c.y < lo.y + r || c.y > hi.y - r;
+        }
+        let rects: Vec<[Vec2; 4]> = furniture
+            .iter()
+            .filter(|f| f.max.cmpgt(lo).all() && f.min.cmplt(hi).all())
+            .map(|f| [f.min, Vec2::new(f.max.x, f.min.y), f.max, Vec2::new(f.min.x, f.max.y)])
+            .collect();
+        let mut blocked = std::mem::take(&mut p.blocked);
+        for solid in rects.iter().chain(hung) {
+            p.mark(solid, &mut blocked);
+        }
+        // The agent squeezes through a doorway set close to a corner (as placement assumes).
+        p.entries = entries.iter().filter(|e| e.cmpge(lo).all() && e.cmple(hi).all()).map(|&e| p.cell(e)).collect();
+        for &e in &p.entries {
+            blocked[e] = false;
+        }
+        p.blocked = blocked;
+        (p.components, p.reached) = p.flood(&p.blocked);
+        p
+    }
+
+    fn centre(&self, k: usize) -> Vec2 {
+        self.origin + Vec2::new((k % self.width) as f32 + 0.5, (k / self.width) as f32 + 0.5) * PASSAGE_CELL_M
+    }
+
+    fn cell(&self, p: Vec2) -> usize {
+        let q = ((p - self.origin) / PASSAGE_CELL_M).floor();
+        let x = q.x.clamp(0.0, self.width as f32 - 1.0) as usize;
+        let y = q.y.clamp(0.0, self.height as f32 - 1.0) as usize;
+        x + y * self.width
+    }
+
+    /// Blocks the cells where the agent's square (half side [`PASSAGE_RADIUS_M`], which holds
+    /// its disc) would overlap `solid`.
+    fn mark(&self, solid: &[Vec2; 4], blocked: &mut [bool]) {
+        let r = Vec2::splat(PASSAGE_RADIUS_M);
+        let lo = solid.iter().fold(Vec2::MAX, |m, p| m.min(*p)) - r;
+        let hi = solid.iter().fold(Vec2::MIN, |m, p| m.max(*p)) + r;
+        let (a, b) = (self.cell(lo), self.cell(hi));
+        for y in a / self.width..=b / self.width {
+            for x in a % self.width..=b % self.width {
+                let k = x + y * self.width;
+                let c = self.centre(k);
+                let square = [c - r, Vec2::new(c.x + r.x, c.y - r.y), c + r, Vec2::new(c.x - r.x, c.y + r.y)];
+                if convex_overlap(solid, &square) {
+                    blocked[k] = true;
+                }
+            }
+        }
+    }
+
+    /// The component of each entry (`usize::MAX` where its cell is blocked) and how many
+    /// cells the entries reach together.
+    fn flood(&self, blocked: &[bool]) -> (Vec<usize>, usize) {
+        let mut label = vec![usize::MAX; blocked.len()];
+        let mut reached = 0;
+        for (i, &start) in self.entries.iter().enumerate() {
+            if blocked[start] || label[start] != usize::MAX {
+                continue;
+            }
+            label[start] = i;
+            let mut stack = vec![start];
+            while let Some(k) = stack.pop() {
+                reached += 1;
+                let (x, y) = (k % self.width, k / self.width);
+                let next = [
+                    (x > 0).then(|| k - 1),
+                    (x + 1 < self.width).then(|| k + 1),
+                    (y > 0).then(|| k - self.width),
+                    (y + 1 < self.height).then(|| k + self.width),
+                ];
+                for n in next.into_iter().flatten() {
+                    if label[n] == usize::MAX && !blocked[n] {
+                        label[n] = i;
+                        stack.push(n);
+                    }
+                }
+            }
+        }
+        (self.entries.iter().map(|&e| label[e]).collect(), reached)
+    }
+
+    /// Whether the room stays passable with `solids` added: doorways joined before stay
+    /// joined, and the doorways reach at least half the floor they reached before.
+    fn keeps(&self, solids: &[[Vec2; 4]]) -> bool {
+        let mut blocked = self.blocked.clone();
+        for solid in solids {
+            self.mark(solid, &mut blocked);
+        }
+        let (after, reached) = self.flood(&blocked);
+        let n = self.entries.len();
+        let joined = |c: &[usize], i: usize, j: usize| c[i] != usize::MAX && c[i] == c[j];
+        let kept = (0..n).all(|i| (i + 1..n).all(|j| !joined(&self.components, i, j) || joined(&after, i, j)));
+        kept && 2 * reached >= self.reached
+    }
 }
 
 /// The leaf of `door` opening into `room` with its hinge on the jamb at `side` (+1: the
@@ -266,6 +431,33 @@ mod tests {
         assert!(!convex_overlap(&square, &touching));
         assert!(!convex_overlap(&square, &diamond), "separated by the diamond's edge normal");
         assert!(convex_overlap(&square, &diamond.map(|p| p - Vec2::splat(0.3))));
+    }
+
+    /// A 4 x 3 m room with doorways at both ends of its lower wall and a table leaving a 1 m
+    /// walkway along that wall: a slab across the walkway closes it, one beside it does not,
+    /// and one that boxes in the only doorway of a room is refused too.
+    #[test]
+    fn a_passage_refuses_a_solid_that_closes_the_walkway() {
+        let (lo, hi) = (Vec2::ZERO, Vec2::new(4.0, 3.0));
+        let table = Rect { min: Vec2::new(0.0, 1.0), max: Vec2::new(3.0, 3.0) };
+        let entries = [Vec2::new(0.5, 0.35), Vec2::new(3.5, 0.35)];
+        let passage = Passage::new(lo, hi, &[table], &[], &entries);
+        assert_eq!(passage.components[0], passage.components[1], "the walkway joins the doorways");
+        let slab = |a: Vec2, b: Vec2| [a, Vec2::new(b.x, a.y), b, Vec2::new(a.x, b.y)];
+        let across = slab(Vec2::new(2.0, 0.0), Vec2::new(2.04, 0.95));
+        assert!(!passage.keeps(&[across]), "0.05 m left under the slab's end");
+        let short = slab(Vec2::new(2.0, 0.0), Vec2::new(2.04, 0.3));
+        assert!(passage.keeps(&[short]), "0.7 m left beside a short slab");
+        // One doorway, and a box of slabs around it: the floor is out of reach.
+        let single = Passage::new(lo, hi, &[], &[], &entries[..1]);
+        let pen = [slab(Vec2::new(1.2, 0.0), Vec2::new(1.24, 1.3)), slab(Vec2::new(0.0, 1.26), Vec2::new(1.24, 1.3))];
+        assert!(!single.keeps(&pen));
+        assert!(single.keeps(&pen[..1]));
+    }
+
+    #[test]
+    fn the_passage_is_kept_for_the_walks_own_agent() {
+        assert_eq!(PASSAGE_RADIUS_M, crate::trajectory::TrajectoryParams::default().radius_m);
     }
 
     #[test]
