@@ -24,6 +24,7 @@ use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 
 use crate::config::GeneratorConfig;
+use crate::floor_grid::FloorGrid;
 use crate::floorplan::Floorplan;
 use crate::materials::{MaterialCatalog, VARIANTS};
 use crate::placement::{self, Rect};
@@ -208,9 +209,7 @@ fn hang(
 /// [`PASSAGE_RADIUS_M`] stands clear of the walls, the furniture and the leaves hung already,
 /// and the cells just inside each of the room's doorways.
 struct Passage {
-    origin: Vec2,
-    width: usize,
-    height: usize,
+    grid: FloorGrid,
     blocked: Vec<bool>,
     entries: Vec<usize>,
     /// Component of each entry's cell (`usize::MAX`: none) and the cells the entries reach.
@@ -220,34 +219,25 @@ struct Passage {
 
 impl Passage {
     fn new(lo: Vec2, hi: Vec2, furniture: &[Rect], hung: &[[Vec2; 4]], entries: &[Vec2]) -> Passage {
-        let size = hi - lo;
-        let (width, height) =
-            (((size.x / PASSAGE_CELL_M).floor() as usize).max(1), ((size.y / PASSAGE_CELL_M).floor() as usize).max(1));
-        let mut p = Passage {
-            origin: lo,
-            width,
-            height,
-            blocked: vec![false; width * height],
-            entries: Vec::new(),
-            components: Vec::new(),
-            reached: 0,
-        };
+        let grid = FloorGrid::covering(lo, hi - lo, PASSAGE_CELL_M);
         let r = PASSAGE_RADIUS_M;
-        for k in 0..width * height {
-            let c = p.centre(k);
-            p.blocked[k] = c.x < lo.x + r || c.x > hi.x - r || c.y < lo.y + r || c.y > hi.y - r;
-        }
+        let mut blocked: Vec<bool> = (0..grid.len())
+            .map(|k| {
+                let c = grid.centre(k);
+                c.x < lo.x + r || c.x > hi.x - r || c.y < lo.y + r || c.y > hi.y - r
+            })
+            .collect();
+        let mut p = Passage { grid, blocked: Vec::new(), entries: Vec::new(), components: Vec::new(), reached: 0 };
         let rects: Vec<[Vec2; 4]> = furniture
             .iter()
             .filter(|f| f.max.cmpgt(lo).all() && f.min.cmplt(hi).all())
             .map(|f| [f.min, Vec2::new(f.max.x, f.min.y), f.max, Vec2::new(f.min.x, f.max.y)])
             .collect();
-        let mut blocked = std::mem::take(&mut p.blocked);
         for solid in rects.iter().chain(hung) {
             p.mark(solid, &mut blocked);
         }
         // The agent squeezes through a doorway set close to a corner (as placement assumes).
-        p.entries = entries.iter().filter(|e| e.cmpge(lo).all() && e.cmple(hi).all()).map(|&e| p.cell(e)).collect();
+        p.entries = entries.iter().filter(|e| e.cmpge(lo).all() && e.cmple(hi).all()).map(|&e| grid.cell(e)).collect();
         for &e in &p.entries {
             blocked[e] = false;
         }
@@ -256,28 +246,18 @@ impl Passage {
         p
     }
 
-    fn centre(&self, k: usize) -> Vec2 {
-        self.origin + Vec2::new((k % self.width) as f32 + 0.5, (k / self.width) as f32 + 0.5) * PASSAGE_CELL_M
-    }
-
-    fn cell(&self, p: Vec2) -> usize {
-        let q = ((p - self.origin) / PASSAGE_CELL_M).floor();
-        let x = q.x.clamp(0.0, self.width as f32 - 1.0) as usize;
-        let y = q.y.clamp(0.0, self.height as f32 - 1.0) as usize;
-        x + y * self.width
-    }
-
     /// Blocks the cells where the agent's square (half side [`PASSAGE_RADIUS_M`], which holds
     /// its disc) would overlap `solid`.
     fn mark(&self, solid: &[Vec2; 4], blocked: &mut [bool]) {
         let r = Vec2::splat(PASSAGE_RADIUS_M);
         let lo = solid.iter().fold(Vec2::MAX, |m, p| m.min(*p)) - r;
         let hi = solid.iter().fold(Vec2::MIN, |m, p| m.max(*p)) + r;
-        let (a, b) = (self.cell(lo), self.cell(hi));
-        for y in a / self.width..=b / self.width {
-            for x in a % self.width..=b % self.width {
-                let k = x + y * self.width;
-                let c = self.centre(k);
+        let g = &self.grid;
+        let (a, b) = (g.cell(lo), g.cell(hi));
+        for y in a / g.width..=b / g.width {
+            for x in a % g.width..=b % g.width {
+                let k = x + y * g.width;
+                let c = g.centre(k);
                 let square = [c - r, Vec2::new(c.x + r.x, c.y - r.y), c + r, Vec2::new(c.x - r.x, c.y + r.y)];
                 if convex_overlap(solid, &square) {
                     blocked[k] = true;
@@ -289,32 +269,8 @@ impl Passage {
     /// The component of each entry (`usize::MAX` where its cell is blocked) and how many
     /// cells the entries reach together.
     fn flood(&self, blocked: &[bool]) -> (Vec<usize>, usize) {
-        let mut label = vec![usize::MAX; blocked.len()];
-        let mut reached = 0;
-        for (i, &start) in self.entries.iter().enumerate() {
-            if blocked[start] || label[start] != usize::MAX {
-                continue;
-            }
-            label[start] = i;
-            let mut stack = vec![start];
-            while let Some(k) = stack.pop() {
-                reached += 1;
-                let (x, y) = (k % self.width, k / self.width);
-                let next = [
-                    (x > 0).then(|| k - 1),
-                    (x + 1 < self.width).then(|| k + 1),
-                    (y > 0).then(|| k - self.width),
-                    (y + 1 < self.height).then(|| k + self.width),
-                ];
-                for n in next.into_iter().flatten() {
-                    if label[n] == usize::MAX && !blocked[n] {
-                        label[n] = i;
-                        stack.push(n);
-                    }
-                }
-            }
-        }
-        (self.entries.iter().map(|&e| label[e]).collect(), reached)
+        let fill = self.grid.flood(blocked, &self.entries);
+        (self.entries.iter().map(|&e| fill.label[e]).collect(), fill.reached)
     }
 
     /// Whether the room stays passable with `solids` added: doorways joined before stay

@@ -30,6 +30,7 @@ pub mod assets;
 pub mod config;
 pub mod decor;
 pub mod doors;
+mod floor_grid;
 pub mod floorplan;
 pub mod generate;
 pub mod house;

@@ -36,6 +36,7 @@ use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 
 use crate::config::GeneratorConfig;
+use crate::floor_grid::FloorGrid;
 use crate::floorplan::Floorplan;
 use crate::library::Library;
 use crate::library::furniture::{FurnitureVariant, Place, Rule};
@@ -330,9 +331,7 @@ struct RoomContext {
 /// [`WALK_CELL_M`] grid: not within half that width of a wall or of a floor object.
 #[derive(Clone, Debug)]
 struct WalkGrid {
-    origin: Vec2,
-    width: usize,
-    height: usize,
+    grid: FloorGrid,
     blocked: Vec<bool>,
     /// Cells just inside each door of the room.
     entries: Vec<usize>,
@@ -344,58 +343,44 @@ impl WalkGrid {
     fn new(plan: &Floorplan, room: &Room, interior: Rect, wall_thickness_m: f32) -> Option<WalkGrid> {
         let radius = WALKWAY_WIDTH_M * 0.5;
         let size = interior.max - interior.min;
-        let (width, height) = ((size.x / WALK_CELL_M).floor() as usize, (size.y / WALK_CELL_M).floor() as usize);
-        if width == 0 || height == 0 {
+        if (size.x / WALK_CELL_M).floor() as usize == 0 || (size.y / WALK_CELL_M).floor() as usize == 0 {
             return None;
         }
-        let mut grid = WalkGrid {
-            origin: interior.min,
-            width,
-            height,
-            blocked: vec![false; width * height],
-            entries: Vec::new(),
-            needed: 0,
-        };
-        for k in 0..width * height {
-            let p = grid.centre(k);
-            let inner = Rect { min: interior.min + radius, max: interior.max - radius };
-            grid.blocked[k] = !(p.x > inner.min.x && p.x < inner.max.x && p.y > inner.min.y && p.y < inner.max.y);
-        }
+        let grid = FloorGrid::covering(interior.min, size, WALK_CELL_M);
+        let inner = Rect { min: interior.min + radius, max: interior.max - radius };
+        let mut blocked: Vec<bool> = (0..grid.len())
+            .map(|k| {
+                let p = grid.centre(k);
+                !(p.x > inner.min.x && p.x < inner.max.x && p.y > inner.min.y && p.y < inner.max.y)
+            })
+            .collect();
+        let mut entries = Vec::new();
         for door in &plan.doors {
             let Some(inward) = door.inward(room.id) else { continue };
             let entry = door.center.truncate() + inward * (wall_thickness_m * 0.5 + radius + 0.05);
             let k = grid.cell(entry);
             // The agent squeezes through a door set close to a corner.
-            grid.blocked[k] = false;
-            grid.entries.push(k);
+            blocked[k] = false;
+            entries.push(k);
         }
-        if grid.entries.is_empty() {
+        if entries.is_empty() {
             return None;
         }
-        let free = grid.blocked.iter().filter(|b| !**b).count();
-        grid.needed = ((MIN_REACHABLE_M2 / (WALK_CELL_M * WALK_CELL_M)) as usize).min(free / 2);
-        grid.walkable(&grid.blocked).then_some(grid)
-    }
-
-    fn centre(&self, k: usize) -> Vec2 {
-        self.origin + Vec2::new((k % self.width) as f32 + 0.5, (k / self.width) as f32 + 0.5) * WALK_CELL_M
-    }
-
-    fn cell(&self, p: Vec2) -> usize {
-        let q = ((p - self.origin) / WALK_CELL_M).floor();
-        let x = q.x.clamp(0.0, self.width as f32 - 1.0) as usize;
-        let y = q.y.clamp(0.0, self.height as f32 - 1.0) as usize;
-        x + y * self.width
+        let free = blocked.iter().filter(|b| !**b).count();
+        let needed = ((MIN_REACHABLE_M2 / (WALK_CELL_M * WALK_CELL_M)) as usize).min(free / 2);
+        let walk = WalkGrid { grid, blocked, entries, needed };
+        walk.walkable(&walk.blocked).then_some(walk)
     }
 
     fn mark(&self, r: &Rect, blocked: &mut [bool]) {
         let radius = WALKWAY_WIDTH_M * 0.5;
-        let lo = self.cell(r.min - radius);
-        let hi = self.cell(r.max + radius);
-        for y in lo / self.width..=hi / self.width {
-            for x in lo % self.width..=hi % self.width {
-                let k = x + y * self.width;
-                let p = self.centre(k);
+        let g = &self.grid;
+        let lo = g.cell(r.min - radius);
+        let hi = g.cell(r.max + radius);
+        for y in lo / g.width..=hi / g.width {
+            for x in lo % g.width..=hi % g.width {
+                let k = x + y * g.width;
+                let p = g.centre(k);
                 if p.x > r.min.x - radius && p.x < r.max.x + radius && p.y > r.min.y - radius && p.y < r.max.y + radius
                 {
                     blocked[k] = true;
@@ -419,31 +404,11 @@ impl WalkGrid {
     }
 
     fn walkable(&self, blocked: &[bool]) -> bool {
-        let start = self.entries[0];
         if self.entries.iter().any(|&e| blocked[e]) {
             return false;
         }
-        let mut seen = vec![false; blocked.len()];
-        let mut stack = vec![start];
-        seen[start] = true;
-        let mut count = 0;
-        while let Some(k) = stack.pop() {
-            count += 1;
-            let (x, y) = (k % self.width, k / self.width);
-            let next = [
-                (x > 0).then(|| k - 1),
-                (x + 1 < self.width).then(|| k + 1),
-                (y > 0).then(|| k - self.width),
-                (y + 1 < self.height).then(|| k + self.width),
-            ];
-            for n in next.into_iter().flatten() {
-                if !seen[n] && !blocked[n] {
-                    seen[n] = true;
-                    stack.push(n);
-                }
-            }
-        }
-        count >= self.needed && self.entries.iter().all(|&e| seen[e])
+        let fill = self.grid.flood(blocked, &self.entries[..1]);
+        fill.reached >= self.needed && self.entries.iter().all(|&e| fill.label[e] == 0)
     }
 }
 
