@@ -86,9 +86,14 @@ fn every_noise_figure_has_its_provenance() {
                     let rest = &p.how[p.how.find(key).unwrap() + key.len()..];
                     rest.split_whitespace().next().unwrap().parse().unwrap()
                 };
-                let saturation = 10f64.powf(quoted("SNRmax = ") / 10.0);
-                let expected =
-                    if p.field == "full_well_e" { saturation } else { saturation / 10f64.powf(quoted("DR = ") / 20.0) };
+                let range = || 10f64.powf(quoted("DR = ") / 20.0);
+                let expected = if p.how.contains("threshold = ") {
+                    // saturation = absolute sensitivity threshold x dynamic range
+                    quoted("threshold = ") * range()
+                } else {
+                    let saturation = 10f64.powf(quoted("SNRmax = ") / 10.0);
+                    if p.field == "full_well_e" { saturation } else { saturation / range() }
+                };
                 assert!((p.value / expected - 1.0).abs() < 0.01, "{} {}: {} vs {expected}", s.model, p.field, p.value);
             }
         }
@@ -97,7 +102,7 @@ fn every_noise_figure_has_its_provenance() {
         };
         sourced += usize::from(measured("full_well_e") && measured("read_noise_e"));
     }
-    assert!(sourced >= 7, "{sourced} sensors with measured or derived full well and read noise");
+    assert!(sourced >= 11, "{sourced} sensors with measured or derived full well and read noise");
 }
 
 #[test]
