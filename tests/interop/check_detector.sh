@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
 # The learned detector scored by pycocotools on houses it never saw: `scene-gen dataset` renders
-# daylight frames of houses 8..11 through the default camera (training used houses 1000..1147),
+# daylight frames of houses 8..11 through the default camera (training used houses 1000..1443),
 # `scene-gen detect --json` answers for every image, and COCOeval (bbox, area all, 100
 # detections) gives AP@0.5 overall and per class. Fails below the floor FLOOR (default 0.3: the
-# built-in weights score 0.588 here, an untrained network about 0.001; the model card has the
+# built-in weights score 0.675 here, an untrained network about 0.001; the model card has the
 # figures). Uses target/release/scene-gen (BIN= overrides).
 set -euo pipefail
 cd "$(dirname "$0")/../.."
