@@ -6,7 +6,7 @@
 //! of furniture, another door's clearance or another leaf. Open 90 degrees or more, a leaf
 //! narrows its doorway by half its thickness at most, so the doorway and its threshold stay
 //! passable: the agent walks through the middle of the doorway, and the
-//! [`trajectory`](crate::trajectory) keeps clear of leaves as it does of furniture.
+//! [`trajectory`] keeps clear of leaves as it does of furniture.
 //!
 //! A leaf swung wide can still close the way past it: stood out from the wall between its
 //! doorway and a table, it can leave less than the agent's width where furniture left a
@@ -30,6 +30,7 @@ use crate::materials::{MaterialCatalog, VARIANTS};
 use crate::placement::{self, Rect};
 use crate::procedural::builder::MeshBuilder;
 use crate::scene::{Door, DoorLeaf, Geometry, OpeningKind, Room, Semantic};
+use crate::trajectory;
 
 /// Leaf thickness (interior doors are 35-44 mm).
 const THICKNESS_M: f32 = 0.04;
@@ -47,9 +48,8 @@ const HANDLE_HEIGHT_M: f32 = 1.0;
 const MAX_OPEN_DEG: f32 = 175.0;
 /// Step of the swing test, degrees.
 const SWING_STEP_DEG: f32 = 5.0;
-/// Radius of the agent a leaf must leave room for: the walk's nominal radius
-/// (`TrajectoryParams::default().radius_m`).
-const PASSAGE_RADIUS_M: f32 = 0.25;
+/// Radius of the agent a leaf must leave room for: the walk's own.
+const PASSAGE_RADIUS_M: f32 = trajectory::NOMINAL_RADIUS_M;
 /// Grid step of the passage test.
 const PASSAGE_CELL_M: f32 = 0.1;
 /// Finishes a house's doors take, one per house.
@@ -124,10 +124,7 @@ impl RoomObstacles {
         let entries: Vec<Vec2> = plan
             .doors
             .iter()
-            .filter_map(|d| {
-                let inward = d.inward(room.id)?;
-                Some(d.center.truncate() + inward * (0.5 * wall_thickness_m + PASSAGE_RADIUS_M + 0.05))
-            })
+            .filter_map(|d| placement::door_entry(d, room.id, wall_thickness_m, PASSAGE_RADIUS_M))
             .collect();
         let passage = Passage::new(lo, hi, furniture, hung, &entries);
         RoomObstacles {
@@ -187,18 +184,12 @@ fn hang(
             // corner that pokes in between them, and then the leaf stops at the step before.
             let open_deg = 90.0 + opening * (widest - 90.0);
             let drawn = at(open_deg);
-            let mut step = ((open_deg - 90.0) / SWING_STEP_DEG).floor();
-            let mut leaf = if obstacles.admit(&drawn) { drawn } else { at(90.0 + step * SWING_STEP_DEG) };
-            // Closing towards 90 degrees until the room stays passable.
-            loop {
-                if obstacles.passage.keeps(&solids(&leaf)) {
-                    return Some(leaf);
-                }
-                if step < 0.0 {
-                    break;
-                }
-                leaf = at(90.0 + step * SWING_STEP_DEG);
-                step -= 1.0;
+            let below = ((open_deg - 90.0) / SWING_STEP_DEG).floor() as i32;
+            let drawn = obstacles.admit(&drawn).then_some(drawn);
+            // Then closing towards 90 degrees a step at a time, until the room stays passable.
+            let closing = (0..=below).rev().map(|step| at(90.0 + step as f32 * SWING_STEP_DEG));
+            if let Some(leaf) = drawn.into_iter().chain(closing).find(|l| obstacles.passage.keeps(&solids(l))) {
+                return Some(leaf);
             }
         }
     }
@@ -409,11 +400,6 @@ mod tests {
         let pen = [slab(Vec2::new(1.2, 0.0), Vec2::new(1.24, 1.3)), slab(Vec2::new(0.0, 1.26), Vec2::new(1.24, 1.3))];
         assert!(!single.keeps(&pen));
         assert!(single.keeps(&pen[..1]));
-    }
-
-    #[test]
-    fn the_passage_is_kept_for_the_walks_own_agent() {
-        assert_eq!(PASSAGE_RADIUS_M, crate::trajectory::TrajectoryParams::default().radius_m);
     }
 
     #[test]

@@ -356,8 +356,7 @@ impl WalkGrid {
             .collect();
         let mut entries = Vec::new();
         for door in &plan.doors {
-            let Some(inward) = door.inward(room.id) else { continue };
-            let entry = door.center.truncate() + inward * (wall_thickness_m * 0.5 + radius + 0.05);
+            let Some(entry) = door_entry(door, room.id, wall_thickness_m, radius) else { continue };
             let k = grid.cell(entry);
             // The agent squeezes through a door set close to a corner.
             blocked[k] = false;
@@ -499,6 +498,14 @@ pub fn door_clearance(door: &Door, room: u32, wall_thickness_m: f32) -> Option<R
     let half = door.width_m * 0.5 + DOOR_MARGIN_M;
     let depth = wall_thickness_m * 0.5 + DOOR_CLEAR_DEPTH_M;
     Some(span(door.center.truncate(), tangent, inward, [-half, half], [0.0, depth]))
+}
+
+/// Where an agent of `radius_m` stands just inside `door` in `room`: clear of the wall's face
+/// by its radius and 5 cm. `None` when the door does not open on `room`.
+#[must_use]
+pub(crate) fn door_entry(door: &Door, room: u32, wall_thickness_m: f32, radius_m: f32) -> Option<Vec2> {
+    let inward = door.inward(room)?;
+    Some(door.center.truncate() + inward * (wall_thickness_m * 0.5 + radius_m + 0.05))
 }
 
 /// The rectangles kept free in `room`: door clearances, thresholds, and (for objects above the sill) strips in front of windows.

@@ -57,6 +57,10 @@ pub const FALLBACK_RADII_M: [f32; 3] = [0.2, 0.15, 0.1];
 /// camera that is not pointed steeply down.
 pub const DEFAULT_SPEED_M_PER_S: f32 = 1.0;
 
+/// The agent's radius by default, metres: door leaves are hung to leave it room
+/// ([`crate::doors`]).
+pub const NOMINAL_RADIUS_M: f32 = 0.25;
+
 /// How the agent walks.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TrajectoryParams {
@@ -75,7 +79,7 @@ pub struct TrajectoryParams {
 impl Default for TrajectoryParams {
     fn default() -> Self {
         TrajectoryParams {
-            radius_m: 0.25,
+            radius_m: NOMINAL_RADIUS_M,
             cell_m: 0.1,
             step_m: 0.25,
             speed_m_per_s: DEFAULT_SPEED_M_PER_S,
