@@ -37,6 +37,12 @@ fn write_case(seed: u64, n: usize, dir: &Path) -> (testdata::HiddenCase, PathBuf
 /// and one clean set (12) is given illumination_falloff.
 ///
 /// The count varies with the noise realisation.
+///
+/// Unexplained misfit (`gap::misfit`) on these sets, where every effect is in the library, is a
+/// false alarm or a library effect fitted imperfectly: these seeds report it on 3 of 40 (a
+/// periodic pattern's spatial misfit, a clean set's linearity, a DSNU with row and column noise),
+/// and `cargo run --release --example gap_unexplained -- 40..120 library` on 9 of 80 (clean sets:
+/// 3 of the 40 in cases 0..120); the test allows 8 of 40.
 /// Measured over 31 seed sets (case seeds `100000 b + 0..40`, data seeds + 1000, `GapOptions::seed` 1288 + b,
 /// b in 0..31; b = 0 is this test; a throw-away copy of this loop, run as
 /// `GAPRATE_BASES=0..31 RAYON_NUM_THREADS=1 target/release/deps/tmp_gaprate-* --nocapture`,
@@ -57,7 +63,7 @@ fn write_case(seed: u64, n: usize, dir: &Path) -> (testdata::HiddenCase, PathBuf
 fn hidden_effects_are_named_and_the_gap_shrinks() {
     let dir = temp_dir("hidden");
     let (mut hits, mut clean_false) = (0, Vec::new());
-    let mut misses = Vec::new();
+    let (mut misses, mut alarms) = (Vec::new(), Vec::new());
     for seed in 0..40u64 {
         let n = (seed % 3) as usize;
         let case_dir = dir.join(format!("case{seed}"));
@@ -70,6 +76,9 @@ fn hidden_effects_are_named_and_the_gap_shrinks() {
         let shrink_ok = hidden.is_empty() || r.gap_final.gap <= 0.2 * r.gap_initial.gap;
         if hidden.is_empty() && !named.is_empty() {
             clean_false.push((seed, named.clone()));
+        }
+        if !r.unexplained().is_empty() {
+            alarms.push((seed, r.unexplained()));
         }
         if named == hidden && shrink_ok {
             hits += 1;
@@ -84,6 +93,11 @@ fn hidden_effects_are_named_and_the_gap_shrinks() {
     println!("single-gain hidden-effect hit rate: {hits}/40; misses: {misses:?}");
     assert!(clean_false.len() <= 2, "effects named on {} of 14 clean sets: {clean_false:?}", clean_false.len());
     assert!(hits >= 17, "hit rate {hits}/40; misses:\n{}", misses.join("\n"));
+    assert!(
+        alarms.len() <= 8,
+        "misfit called unexplained on {} of 40 sets of library effects: {alarms:?}",
+        alarms.len()
+    );
 }
 
 /// The same data set and seed give the same result: the workflow is deterministic.
@@ -183,7 +197,7 @@ fn cli_writes_reports_and_prints_json() {
     assert!(stderr.lines().last().is_some_and(|l| l.starts_with("gap: done in ")), "{stderr}");
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("stdout is one JSON document");
     let keys: Vec<&String> = v.as_object().unwrap().keys().collect();
-    assert_eq!(keys, ["gap_final", "gap_initial", "named", "simulations", "steps"]);
+    assert_eq!(keys, ["gap_final", "gap_initial", "named", "simulations", "steps", "tentative", "unexplained"]);
     assert_eq!(v["named"], serde_json::json!(case.hidden));
     let step = &v["steps"][0];
     for k in ["effect", "params", "gap_before", "gap_after", "evidence"] {
@@ -252,7 +266,7 @@ fn cli_refuses_bad_input_without_output() {
 }
 
 /// A minimal descriptor (16 x 12 pixels, 4 steps, one dark pair, no spatial stacks) runs: no
-/// stack statistics, no spatial candidates, the linear model refitted. (With 11 statistics the
+/// stack statistics, no spatial candidates, the linear model refitted. (With 15 statistics the
 /// BIC penalty is weak and a clean set this small can lose to a borderline candidate, so names
 /// are not asserted here; the 40-case test covers naming.)
 #[test]
@@ -268,7 +282,9 @@ fn minimal_descriptor_without_stacks() {
     let desc = testdata::write_dataset(&dir, &case.model, &layout, 9).unwrap();
     let r = gap::run(&desc, None, &GapOptions::default()).unwrap();
     assert!(r.measured.dark_stack.is_none() && r.measured.bright_stack.is_none());
-    assert_eq!(r.measured.entries.len(), 11);
+    // 4 means, 4 variances, the dark mean and variance, the dark pair's row-profile variance,
+    // and the neighbour correlations (x, y) of the dark and the middle bright pair.
+    assert_eq!(r.measured.entries.len(), 15);
     assert!(r.trials.iter().all(|t| !["dsnu", "prnu", "hot_pixels", "periodic_pattern"].contains(&t.effect.as_str())));
     let k = r.final_model.sensor.system_gain_dn_per_e / case.model.sensor.system_gain_dn_per_e;
     assert!((k - 1.0).abs() < 0.15, "K ratio {k}");
@@ -510,4 +526,75 @@ fn peaks_find_a_plane_wave() {
     let (p, fx, fy) = found[0];
     assert!((fx - 0.125).abs() < 1e-9 && (fy + 0.25).abs() < 1e-9, "{fx} {fy}");
     assert!((p - 1.0).abs() < 1e-9, "A^2 of a unit wave: {p}");
+}
+
+/// Effects outside the library (`testdata::Foreign`: dead pixels, a gamma response, column
+/// gain, crosstalk; three sets of each, on hidden-effect cases 0..12 with their library effects)
+/// are reported as unexplained, in the family where each shows, with where the misfit lives.
+/// `cargo run --release --example gap_unexplained -- 0..40 foreign` measured: its own family
+/// unexplained on 10 of 10 sets of dead pixels, gamma and crosstalk, and on 8 of 10 of column
+/// gain (sd 1..3 %, which a fitted fall-off or PRNU partly absorbs); 38 of 40 report something
+/// unexplained. Effects whose evidence rests on the unexplained statistics are reported as
+/// tentative, not named; still, 15 of the 40 name a library effect that is not there: black
+/// level on 7 (also the commonest false name on library sets, whose dark frames clip at 0 DN),
+/// and 8 more where the foreign misfit also moves a statistic the final model explains (a fall-off
+/// or PRNU for column gain or dead pixels, DSNU or hot pixels for crosstalk). On cases 0..12: 11
+/// caught (its own family on 11), no extra name on 7; the gates leave room for the noise draw.
+#[test]
+fn effects_outside_the_library_are_reported_unexplained() {
+    let dir = temp_dir("foreign");
+    let (mut own_family, mut caught, mut no_extra) = (0, 0, 0);
+    let mut report = Vec::new();
+    for seed in 0..12u64 {
+        let case = testdata::random_case(seed, (seed % 3) as usize);
+        let layout = testdata::layout(&case.model);
+        let foreign = testdata::random_foreign(seed);
+        let case_dir = dir.join(format!("case{seed}"));
+        let desc = testdata::write_dataset_foreign(&case_dir, &case.model, &layout, seed + 1000, foreign).unwrap();
+        let r = gap::run(&desc, None, &GapOptions::default()).unwrap();
+        let unexplained = r.unexplained();
+        let extra: Vec<String> = r.named().into_iter().filter(|n| !case.hidden.contains(&n.as_str())).collect();
+        own_family += usize::from(unexplained.contains(&foreign.family()));
+        caught += usize::from(!unexplained.is_empty());
+        no_extra += usize::from(extra.is_empty());
+        // Where the misfit lives is said for every unexplained family.
+        for u in r.misfit.iter().flat_map(|m| &m.unexplained) {
+            assert!(u.r#where.starts_with(u.family) && !u.statistics.is_empty(), "{u:?}");
+        }
+        report.push(format!("{}: unexplained {unexplained:?}, extra names {extra:?}", foreign.name()));
+        let _ = std::fs::remove_dir_all(&case_dir);
+    }
+    println!("{report:#?}");
+    assert!(own_family >= 9, "the effect's own family unexplained on {own_family} of 12: {report:#?}");
+    assert!(caught >= 10, "unexplained reported on {caught} of 12: {report:#?}");
+    assert!(no_extra >= 5, "a library effect named for a foreign one on {} of 12: {report:#?}", 12 - no_extra);
+}
+
+/// The report says what is unexplained: report.md's section, report.json's `unexplained` and
+/// `misfit_check`, and the `--json` summary.
+#[test]
+fn cli_reports_unexplained_misfit() {
+    let dir = temp_dir("cli-unexplained");
+    let case = testdata::random_case(0, 0);
+    let layout = testdata::layout(&case.model);
+    let dead = testdata::Foreign::DeadPixels { fraction: 0.005, response: 0.1 };
+    let desc = testdata::write_dataset_foreign(&dir.join("data"), &case.model, &layout, 1000, dead).unwrap();
+    let out = dir.join("out");
+    let o = bin().arg("gap").arg(&desc).arg("--out").arg(&out).arg("--json").output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let summary: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let families: Vec<&str> =
+        summary["unexplained"].as_array().unwrap().iter().filter_map(|u| u["family"].as_str()).collect();
+    assert!(families.contains(&"tails"), "{summary}");
+    let md = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(md.contains("## Unexplained") && md.contains("**tails**"), "{md}");
+    let full: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
+    assert_eq!(full["misfit_check"]["replicates"], 8);
+    // Without replicates the test is skipped and says so.
+    let o =
+        bin().arg("gap").arg(&desc).arg("--out").arg(dir.join("out0")).arg("--replicates").arg("0").output().unwrap();
+    assert!(o.status.success());
+    let md = std::fs::read_to_string(dir.join("out0").join("report.md")).unwrap();
+    assert!(md.contains("Not tested (no replicates)."), "{md}");
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -38,6 +38,10 @@ pub struct GapArgs {
     /// rows first (frames of 240 rows or more; see `scene_gen::gap::GapOptions::screen`).
     #[arg(long)]
     pub no_screen: bool,
+    /// Replicate simulations of the final model that the leftover misfit is tested against
+    /// (report "Unexplained"); 0 skips the test.
+    #[arg(long, default_value_t = scene_gen::gap::misfit::DEFAULT_REPLICATES)]
+    pub replicates: usize,
 }
 
 pub fn run(args: &GapArgs) -> Result<(), CliError> {
@@ -56,6 +60,7 @@ pub fn run(args: &GapArgs) -> Result<(), CliError> {
         seed: args.seed,
         max_stack_frames: (args.stack_frames > 0).then_some(args.stack_frames),
         screen: !args.no_screen,
+        replicates: args.replicates,
         ..GapOptions::default()
     };
     let result = activity("gap", || gap::run_inputs(&args.measured, model, &options)).map_err(bad_input)?;
@@ -72,11 +77,13 @@ pub fn run(args: &GapArgs) -> Result<(), CliError> {
             0.0
         };
         let named = result.named();
+        let unexplained = result.unexplained();
         emit(&format!(
-            "gap {:.3} -> {:.3} ({shrink:.1} % smaller); named: {}\nreport: {}\n",
+            "gap {:.3} -> {:.3} ({shrink:.1} % smaller); named: {}; unexplained: {}\nreport: {}\n",
             result.gap_initial.gap,
             result.gap_final.gap,
             if named.is_empty() { "none".to_string() } else { named.join(", ") },
+            if unexplained.is_empty() { "none".to_string() } else { unexplained.join(", ") },
             args.out.join("report.md").display()
         ));
     }

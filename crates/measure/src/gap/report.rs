@@ -45,8 +45,16 @@ pub fn summary_json(result: &GapResult) -> serde_json::Value {
         "gap_final": result.gap_final.gap,
         "steps": result.steps,
         "named": result.named(),
+        "tentative": result.tentative(),
+        "unexplained": unexplained_json(result),
         "simulations": result.simulations,
     })
+}
+
+/// The unexplained families with where their misfit lives (`[]` when the check found none or
+/// did not run; see `replicates` in report.json).
+fn unexplained_json(result: &GapResult) -> serde_json::Value {
+    json!(result.misfit.as_ref().map(|m| m.unexplained.clone()).unwrap_or_default())
 }
 
 fn full_json(result: &GapResult, source: &str) -> serde_json::Value {
@@ -78,6 +86,9 @@ fn full_json(result: &GapResult, source: &str) -> serde_json::Value {
         "families_final": result.gap_final.families,
         "steps": result.steps,
         "named": result.named(),
+        "tentative": result.tentative(),
+        "unexplained": unexplained_json(result),
+        "misfit_check": result.misfit.as_ref().map(|m| json!({"replicates": m.replicates, "families": m.families})),
         "trials": result.trials,
         "simulations": result.simulations,
         "cached_evaluations": result.cached_evaluations,
@@ -126,6 +137,7 @@ fn markdown(r: &GapResult, source: &str) -> String {
             let _ = writeln!(s, "| {f} | {} | {:.2} | {:.2} |", a.dof, a.chi2_per_dof, b.chi2_per_dof);
         }
     }
+    misfit_section(&mut s, r);
     let _ = writeln!(
         s,
         "\n## Candidates tried\n\n| round | effect | chi-square drop | BIC penalty | gap after |\n|---|---|---|---|---|"
@@ -156,6 +168,43 @@ fn markdown(r: &GapResult, source: &str) -> String {
          optics effects in optics.toml."
     );
     s
+}
+
+/// The "Unexplained" section: each family's leftover chi-square against the replicates of the
+/// final model, and where an unexplained misfit lives.
+fn misfit_section(s: &mut String, r: &GapResult) {
+    let Some(m) = &r.misfit else {
+        let _ = writeln!(s, "\n## Unexplained\n\nNot tested (no replicates).");
+        return;
+    };
+    let _ = writeln!(
+        s,
+        "\n## Unexplained\n\nThe final model simulated {} more times with fresh noise and fixed patterns; \
+         each family's chi-square against the final simulation, measured and in the replicates \
+         (a family is unexplained when its p-value is below {} divided over the families).\n\n\
+         | family | dof | measured | replicates (mean +- sd) | p | unexplained |\n|---|---|---|---|---|---|",
+        m.replicates,
+        super::misfit::FAMILY_FALSE_ALARM
+    );
+    for f in &m.families {
+        let _ = writeln!(
+            s,
+            "| {} | {} | {:.1} | {:.1} +- {:.1} | {:.2e} | {} |",
+            f.family,
+            f.dof,
+            f.chi2,
+            f.null_mean,
+            f.null_sd,
+            f.p_value,
+            if f.unexplained { "**yes**" } else { "no" }
+        );
+    }
+    if m.unexplained.is_empty() {
+        let _ = writeln!(s, "\nNothing is left unexplained: every family's misfit is within its sampling spread.");
+    }
+    for u in &m.unexplained {
+        let _ = writeln!(s, "\n- **{}**: {}", u.family, u.r#where);
+    }
 }
 
 // ------------------------------------------------------------------ plots

@@ -5,14 +5,18 @@
 //!
 //! * `linearity`: mean DN per photon-transfer step (mean against photons); variance of the
 //!   frame mean from the larger of the row-profile, column-profile and pixel variances, so
-//!   correlated fixed patterns count.
+//!   correlated fixed patterns count, and at least the rounding's `1 / (12 n)`.
 //! * `photon_transfer`: temporal variance per step from the pair, `var (2/N) var^2`.
 //! * `dark`: mean and temporal variance of every dark pair (dark signal against exposure).
 //! * `spatial`: of the averaged dark and bright stacks, the residual variance after removing
 //!   the row and column profiles (white DSNU / PRNU; trimmed at the tail thresholds), the
 //!   variances of the row and column profiles (row/column patterns, fall-off), the row-profile
 //!   variance of the dark pair's difference (temporal row noise), and the fall-off coefficient
-//!   of the bright stack. Variances of variances: `2 v^2 / dof`.
+//!   of the bright stack. Variances of variances: `2 v^2 / dof`. A periodic wave's frequency is
+//!   refined between the periodogram's bins before it is removed.
+//! * `correlation`: the lag-1 correlation along x and y of the temporal noise (a pair's
+//!   difference, row and column profiles removed) of the first dark pair and the middle bright
+//!   pair, variance `1 / n`: 0 for every effect of the model, positive with crosstalk.
 //! * `spectrum`: peak-to-median ratios of the two largest local maxima of the dark stack's 2-D
 //!   periodogram on a 2x oversampled grid: periodic patterns, separable or diagonal.
 //! * `tails`: pixels of the dark residual above `T` and `3 T` (hot pixels) and of the bright
@@ -296,9 +300,8 @@ pub fn average(frames: &[Vec<f32>]) -> Vec<f64> {
     stack_mean(frames)
 }
 
-/// Of a temporal pair: mean, temporal variance, variance of the mean, row-profile variance of
-/// the difference, and the difference's fourth central moment.
-fn pair_stats(a: &[f32], b: &[f32], w: usize, h: usize) -> (f64, f64, f64, f64, f64) {
+/// The statistics of a temporal pair.
+fn pair_stats(a: &[f32], b: &[f32], w: usize, h: usize) -> PairStats {
     let n = a.len() as f64;
     let avg: Vec<f64> = a.iter().zip(b).map(|(&x, &y)| 0.5 * (f64::from(x) + f64::from(y))).collect();
     let diff: Vec<f64> =
@@ -313,7 +316,45 @@ fn pair_stats(a: &[f32], b: &[f32], w: usize, h: usize) -> (f64, f64, f64, f64, 
         .max(diff_var(&col_means(&avg, w, h)) / w as f64);
     let md = mean(&diff);
     let m4 = diff.iter().map(|d| (d - md).powi(4)).sum::<f64>() / n;
-    (m, v, mean_var, var(&row_means(&diff, w, h)), m4)
+    PairStats {
+        mean_dn: m,
+        var_dn2: v,
+        mean_var,
+        diff_row_var_dn2: var(&row_means(&diff, w, h)),
+        m4,
+        neighbour_corr: neighbour_correlation(&residual(&diff, w, h), w, h),
+    }
+}
+
+/// What [`pair_stats`] measures of a temporal pair.
+struct PairStats {
+    mean_dn: f64,
+    /// Temporal variance, `var((A - B) / sqrt 2)`.
+    var_dn2: f64,
+    /// Sampling variance of `mean_dn`.
+    mean_var: f64,
+    /// Row-profile variance of the difference.
+    diff_row_var_dn2: f64,
+    /// Fourth central moment of the difference.
+    m4: f64,
+    /// Correlation of the difference with its right-hand and lower neighbour (row and column
+    /// profiles removed).
+    neighbour_corr: (f64, f64),
+}
+
+/// Lag-1 correlation of `r` along x and along y. Every effect of the noise model draws each
+/// pixel's temporal noise on its own (row and column noise aside, which the profiles take
+/// out), so both are 0 within `1 / sqrt(n)`; charge or electrical crosstalk between pixels
+/// makes them positive.
+fn neighbour_correlation(r: &[f64], w: usize, h: usize) -> (f64, f64) {
+    let ss: f64 = r.iter().map(|v| v * v).sum();
+    if ss <= 0.0 || w < 2 || h < 2 {
+        return (0.0, 0.0);
+    }
+    let sx: f64 =
+        (0..h).flat_map(|y| (0..w - 1).map(move |x| (y, x))).map(|(y, x)| r[y * w + x] * r[y * w + x + 1]).sum();
+    let sy: f64 = r[..(h - 1) * w].iter().zip(&r[w..]).map(|(a, b)| a * b).sum();
+    (sx / ss, sy / ss)
 }
 
 /// Sampling variance of a temporal variance `v` estimated from `n` pixels in `h` rows whose
@@ -321,8 +362,21 @@ fn pair_stats(a: &[f32], b: &[f32], w: usize, h: usize) -> (f64, f64, f64, f64, 
 /// `2 v^2 / n`; clipped or hot-pixel data are heavy-tailed), plus the row-correlated part
 /// `2 rv^2 / h`.
 fn var_of_var(v: f64, m4: f64, rv: f64, n: f64, h: f64) -> f64 {
-    (m4 - v * v).max(2.0 * v * v) / n + 2.0 * rv * rv / h
+    ((m4 - v * v).max(2.0 * v * v) / n + 2.0 * rv * rv / h).max(QUANTIZED_VAR_OF_VAR / n)
 }
+
+/// Sampling variance of a mean of `n` pixel values, at least what rounding to whole DN leaves,
+/// `1 / (12 n)`: a frame of clipped or constant pixels (a saturated plateau, a dark frame at
+/// 0 DN) has almost no spread, and without the floor a difference of one DN in one pixel
+/// would count as tens of sigmas.
+fn quantized_mean_var(n: f64) -> f64 {
+    1.0 / (12.0 * n.max(1.0))
+}
+
+/// The variance of the squared rounding error of a whole DN, `E[u^4] - E[u^2]^2` for `u`
+/// uniform in (-1/2, 1/2): `1/80 - 1/144 = 1/180`; the floor of a temporal variance's sampling
+/// variance, per pixel (see [`quantized_mean_var`]).
+const QUANTIZED_VAR_OF_VAR: f64 = 1.0 / 180.0;
 
 /// False-alarm rate of the hot-pixel tail per acquisition, `alpha`: the probability that a set
 /// without hot pixels, whose averaged dark residual is Gaussian, puts any pixel above the dark
@@ -383,13 +437,23 @@ fn waves(img: &[f64], w: usize, h: usize) -> (Vec<Peak>, Vec<(f64, f64)>) {
     let (found, median) = peaks_2d(img, w, h, 2, 2);
     let median = median.max(1e-12);
     let floor = median / std::f64::consts::LN_2;
+    // The periodogram's image: the mean removed, not the profiles (a wave along x alone is a
+    // column profile).
+    let r: Vec<f64> = if found.iter().any(|f| f.0 / median > PEAK_RATIO) {
+        let m = mean(img);
+        img.iter().map(|v| v - m).collect()
+    } else {
+        Vec::new()
+    };
     let peaks: Vec<Peak> = found
         .into_iter()
-        .map(|(p, fx, fy)| Peak {
-            ratio: p / median,
-            fx_cycles_per_px: fx,
-            fy_cycles_per_px: fy,
-            amp2_dn2: (p - floor).max(0.0),
+        .map(|(p, fx, fy)| {
+            let ratio = p / median;
+            if ratio <= PEAK_RATIO {
+                return Peak { ratio, fx_cycles_per_px: fx, fy_cycles_per_px: fy, amp2_dn2: (p - floor).max(0.0) };
+            }
+            let (fx, fy, a2) = refine_wave(&r, w, h, fx, fy);
+            Peak { ratio, fx_cycles_per_px: fx, fy_cycles_per_px: fy, amp2_dn2: (a2 - floor).max(0.0) }
         })
         .collect();
     let waves =
@@ -400,6 +464,40 @@ fn waves(img: &[f64], w: usize, h: usize) -> (Vec<Peak>, Vec<(f64, f64)>) {
 /// `(cos, sin)` of `2 pi (fx x + fy y)` for every pixel, row-major, from per-column and per-row
 /// tables (`w + h` sin_cos calls instead of `w h`; the product rule differs from the direct
 /// phase by rounding only).
+/// A wave's frequency between the periodogram's bins: the `(fx, fy)` near a grid peak whose
+/// least-squares sinusoid explains most of the image `r` (mean removed; golden-section searches along fx,
+/// fy, then fx again, over one bin of the 2x grid each way), and the fitted amplitude squared.
+/// On the grid alone a wave's frequency is off by up to half a bin, so a model built from it
+/// drifts out of phase across the frame and its removal leaves part of the wave behind.
+fn refine_wave(r: &[f64], w: usize, h: usize, fx: f64, fy: f64) -> (f64, f64, f64) {
+    let explained = |fx: f64, fy: f64| wave_fit(r, w, fx, fy).2;
+    let golden = |lo: f64, hi: f64, f: &dyn Fn(f64) -> f64| -> f64 {
+        let g = (5f64.sqrt() - 1.0) / 2.0;
+        let (mut a, mut b) = (lo, hi);
+        let (mut c, mut d) = (b - g * (b - a), a + g * (b - a));
+        let (mut fc, mut fd) = (f(c), f(d));
+        for _ in 0..16 {
+            if fc > fd {
+                (b, d, fd) = (d, c, fc);
+                c = b - g * (b - a);
+                fc = f(c);
+            } else {
+                (a, c, fc) = (c, d, fd);
+                d = a + g * (b - a);
+                fd = f(d);
+            }
+        }
+        0.5 * (a + b)
+    };
+    let (dx, dy) = (0.5 / w.max(1) as f64, 0.5 / h.max(1) as f64);
+    let mut x = golden(fx - dx, fx + dx, &|v| explained(v, fy));
+    let y = golden(fy - dy, fy + dy, &|v| explained(x, v));
+    x = golden(x - dx / 2.0, x + dx / 2.0, &|v| explained(v, y));
+    let (a, b, _) = wave_fit(r, w, x, y);
+    // The half-plane convention of the periodogram: fx >= 0.
+    if x < 0.0 { (-x, -y, a * a + b * b) } else { (x, y, a * a + b * b) }
+}
+
 fn wave_table(w: usize, h: usize, fx: f64, fy: f64) -> Vec<(f64, f64)> {
     let tau = std::f64::consts::TAU;
     let ex: Vec<(f64, f64)> = (0..w).map(|x| (tau * fx * x as f64).sin_cos()).map(|(s, c)| (c, s)).collect();
@@ -557,9 +655,12 @@ pub fn compute(acq: &Acquisition, t: &Thresholds) -> Stats {
     let (mut dark_img, mut bright_img) = (None, None);
     let mut peaks: Vec<Peak> = Vec::new();
     let mut mean_vars = Vec::new();
+    let mut pair_corr = Vec::new();
     for b in &acq.blocks {
         if b.frames.len() == 2 {
-            let (m, v, mv, rv, m4) = pair_stats(&b.frames[0], &b.frames[1], w, h);
+            let p = pair_stats(&b.frames[0], &b.frames[1], w, h);
+            let (m, v, mv, rv, m4) = (p.mean_dn, p.var_dn2, p.mean_var, p.diff_row_var_dn2, p.m4);
+            pair_corr.push((b.light, b.group, p.neighbour_corr));
             match b.light {
                 Light::Bright(p) => {
                     steps.push(StepStats {
@@ -584,7 +685,7 @@ pub fn compute(acq: &Acquisition, t: &Thresholds) -> Stats {
                         label: format!("dark mean {:.4} s{}", b.exposure_s, gain_label(acq, b.group)),
                         x: b.exposure_s,
                         value: m,
-                        var: mv,
+                        var: mv.max(quantized_mean_var(n)),
                         count_floor: None,
                     });
                     entries.push(Entry {
@@ -622,7 +723,7 @@ pub fn compute(acq: &Acquisition, t: &Thresholds) -> Stats {
             label: format!("step {i} mean"),
             x: s.photons,
             value: s.mean_dn,
-            var: *mv,
+            var: mv.max(quantized_mean_var(n)),
             count_floor: None,
         });
         entries.push(Entry {
@@ -644,6 +745,7 @@ pub fn compute(acq: &Acquisition, t: &Thresholds) -> Stats {
             count_floor: None,
         });
     }
+    entries.extend(correlation_entries(&pair_corr, n));
     let nr = ((w.saturating_sub(1)) * (h.saturating_sub(1))).max(1) as f64;
     for (name, s) in [("dark", &dark_stack), ("bright", &bright_stack)] {
         let Some(s) = s else { continue };
@@ -679,12 +781,24 @@ pub fn compute(acq: &Acquisition, t: &Thresholds) -> Stats {
             Some(d) => b.iter().zip(d).map(|(x, y)| x - y).collect(),
             None => b.clone(),
         };
-        let sm = mean(&sig);
-        let sxx: f64 = r2.iter().map(|r| r * r).sum();
-        let slope = r2.iter().zip(&sig).map(|(r, s)| r * (s - sm)).sum::<f64>() / sxx.max(1e-300);
-        let resid: Vec<f64> = r2.iter().zip(&sig).map(|(r, s)| s - sm - slope * r).collect();
+        // Least squares of the signal on r^2, refitted without the pixels beyond six robust
+        // sigmas of the first fit: a few dead or hot pixels are not shading.
+        let fit = |keep: &dyn Fn(usize) -> bool| {
+            let idx: Vec<usize> = (0..sig.len()).filter(|&i| keep(i)).collect();
+            let k = idx.len().max(1) as f64;
+            let sm = idx.iter().map(|&i| sig[i]).sum::<f64>() / k;
+            let rm = idx.iter().map(|&i| r2[i]).sum::<f64>() / k;
+            let sxx: f64 = idx.iter().map(|&i| (r2[i] - rm).powi(2)).sum();
+            let slope = idx.iter().map(|&i| (r2[i] - rm) * (sig[i] - sm)).sum::<f64>() / sxx.max(1e-300);
+            let resid: Vec<f64> = (0..sig.len()).map(|i| sig[i] - sm - slope * (r2[i] - rm)).collect();
+            (sm, slope, sxx, resid)
+        };
+        let (_, _, _, first) = fit(&|_| true);
+        let limit = 6.0 * robust_sd(&first).max(1e-12);
+        let (sm, slope, sxx, resid) = fit(&|i| first[i].abs() <= limit);
+        let kept: Vec<f64> = resid.iter().copied().filter(|r| r.abs() <= limit).collect();
         let c = -slope / sm.abs().max(1e-9);
-        let vc = var(&resid) / sxx.max(1e-300) / (sm * sm).max(1e-18);
+        let vc = var(&kept) / sxx.max(1e-300) / (sm * sm).max(1e-18);
         (c, vc)
     });
     if let Some((c, vc)) = falloff {
@@ -724,8 +838,44 @@ pub fn compute(acq: &Acquisition, t: &Thresholds) -> Stats {
     }
 }
 
+/// The `correlation` entries: neighbour correlations of the temporal noise (see
+/// [`neighbour_correlation`]) of the first dark pair of the reference gain and of its middle
+/// bright pair in photons (chosen by the layout alone, so measured and simulated entries are
+/// the same pairs), each `var 1 / n`.
+fn correlation_entries(pairs: &[(Light, usize, (f64, f64))], n: f64) -> Vec<Entry> {
+    let dark = pairs.iter().find(|p| p.0 == Light::Dark && p.1 == 0);
+    let mut bright: Vec<&(Light, usize, (f64, f64))> =
+        pairs.iter().filter(|p| matches!(p.0, Light::Bright(_)) && p.1 == 0).collect();
+    bright.sort_by(|a, b| photons(a.0).total_cmp(&photons(b.0)));
+    let middle = bright.get(bright.len() / 2).copied();
+    let mut out = Vec::new();
+    for (name, pair) in [("dark", dark), ("middle bright", middle)] {
+        let Some(&(light, _, (cx, cy))) = pair else { continue };
+        let x = photons(light);
+        for (axis, value) in [("x", cx), ("y", cy)] {
+            out.push(Entry {
+                family: "correlation",
+                label: format!("{name} pair difference neighbour correlation along {axis}"),
+                x,
+                value,
+                var: 1.0 / n,
+                count_floor: None,
+            });
+        }
+    }
+    out
+}
+
+/// Photons per pixel of a block's light (0 for dark).
+fn photons(light: Light) -> f64 {
+    match light {
+        Light::Bright(p) => p,
+        Light::Dark => 0.0,
+    }
+}
+
 /// The families in report order.
-pub const FAMILIES: [&str; 6] = ["linearity", "photon_transfer", "dark", "spatial", "spectrum", "tails"];
+pub const FAMILIES: [&str; 7] = ["linearity", "photon_transfer", "dark", "spatial", "correlation", "spectrum", "tails"];
 
 /// A family's chi-square.
 #[derive(Debug, Clone, PartialEq, Serialize)]

@@ -274,3 +274,144 @@ pub fn write_dataset(dir: &Path, model: &GapModel, layout: &Acquisition, seed: u
     let acq = simulate_acquisition(model, layout, seed, None);
     write_acquisition(dir, &acq)
 }
+
+/// An effect outside the workflow's library ([`super::fit::EFFECTS`]), applied to a simulated
+/// acquisition's frames, to test that the workflow reports misfit it cannot explain
+/// ([`super::misfit`]) rather than naming a wrong effect for it. Each acts on the signal above
+/// the black level, `s = y - black`, and the result is rounded and clipped to the ADC range.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Foreign {
+    /// A `fraction` of the pixels (a fixed seeded set) answer at `response` times the normal
+    /// signal: weak or dead pixels.
+    DeadPixels { fraction: f64, response: f64 },
+    /// A response like a gamma curve: `s -> max (s / max)^gamma`, `max` the range above black.
+    Gamma { gamma: f64 },
+    /// Every column's signal scaled by its own `1 + g`, `g` normal with sd `std_fraction` (one
+    /// amplifier or ADC per column).
+    ColumnGain { std_fraction: f64 },
+    /// Each pixel keeps `1 - 4 c` of its signal and gives `c` to each of its four neighbours
+    /// (crosstalk; edges reflect), which blurs the temporal noise as well as the image.
+    Crosstalk { coupling: f64 },
+}
+
+impl Foreign {
+    /// The effect's name in reports and tests.
+    #[must_use]
+    pub fn name(&self) -> &'static str {
+        match self {
+            Foreign::DeadPixels { .. } => "dead_pixels",
+            Foreign::Gamma { .. } => "gamma_response",
+            Foreign::ColumnGain { .. } => "column_gain",
+            Foreign::Crosstalk { .. } => "crosstalk",
+        }
+    }
+
+    /// The statistic family where the effect shows most ([`super::stats::FAMILIES`]): dead
+    /// pixels in the bright tail, a gamma in the mean response, column gain in the bright
+    /// stack's column profile, crosstalk in the temporal noise's neighbour correlation.
+    #[must_use]
+    pub fn family(&self) -> &'static str {
+        match self {
+            Foreign::DeadPixels { .. } => "tails",
+            Foreign::Gamma { .. } => "linearity",
+            Foreign::ColumnGain { .. } => "spatial",
+            Foreign::Crosstalk { .. } => "correlation",
+        }
+    }
+
+    /// Applies the effect to every frame of `acq`, whose black level is `black_dn`; `seed`
+    /// draws the pixel or column pattern (the same for every frame).
+    pub fn apply(&self, acq: &mut Acquisition, black_dn: f64, seed: u64) {
+        let (w, h) = (acq.width, acq.height);
+        let max = f64::from((1u32 << acq.bits) - 1);
+        let range = (max - black_dn).max(1.0);
+        let mut r = rng::stream(seed, "gap/testdata/foreign");
+        // Per pixel: the signal's scale (dead pixels, column gain); None for the others.
+        let scale: Option<Vec<f64>> = match *self {
+            Foreign::DeadPixels { fraction, response } => {
+                Some((0..w * h).map(|_| if r.random::<f64>() < fraction { response } else { 1.0 }).collect())
+            }
+            Foreign::ColumnGain { std_fraction } => {
+                // Box-Muller: a normal draw per column.
+                let cols: Vec<f64> = (0..w)
+                    .map(|_| {
+                        let (u, v): (f64, f64) = (r.random::<f64>().max(1e-300), r.random());
+                        1.0 + std_fraction * (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
+                    })
+                    .collect();
+                Some((0..w * h).map(|i| cols[i % w]).collect())
+            }
+            Foreign::Gamma { .. } | Foreign::Crosstalk { .. } => None,
+        };
+        let finish = |v: f64| (black_dn + v).round().clamp(0.0, max) as f32;
+        for frame in acq.blocks.iter_mut().flat_map(|b| b.frames.iter_mut()) {
+            let signal: Vec<f64> = frame.iter().map(|&y| f64::from(y) - black_dn).collect();
+            let out: Vec<f64> = match (*self, &scale) {
+                (_, Some(scale)) => signal.iter().zip(scale).map(|(s, k)| s * k).collect(),
+                (Foreign::Gamma { gamma }, None) => {
+                    signal.iter().map(|&s| range * (s.max(0.0) / range).powf(gamma) + s.min(0.0)).collect()
+                }
+                (Foreign::Crosstalk { coupling }, None) => crosstalk(&signal, w, h, coupling),
+                _ => signal,
+            };
+            *frame = out.into_iter().map(finish).collect();
+        }
+    }
+}
+
+/// `s` with each pixel keeping `1 - 4 c` and each 4-neighbour adding `c` (edges reflect).
+fn crosstalk(s: &[f64], w: usize, h: usize, c: f64) -> Vec<f64> {
+    let at = |x: isize, y: isize| {
+        let x = if x < 0 {
+            1
+        } else if x as usize >= w {
+            w as isize - 2
+        } else {
+            x
+        };
+        let y = if y < 0 {
+            1
+        } else if y as usize >= h {
+            h as isize - 2
+        } else {
+            y
+        };
+        s[y.clamp(0, h as isize - 1) as usize * w + x.clamp(0, w as isize - 1) as usize]
+    };
+    (0..w * h)
+        .map(|i| {
+            let (x, y) = ((i % w) as isize, (i / w) as isize);
+            (1.0 - 4.0 * c) * s[i] + c * (at(x - 1, y) + at(x + 1, y) + at(x, y - 1) + at(x, y + 1))
+        })
+        .collect()
+}
+
+/// The foreign effect of case `seed`: the four kinds in turn (`seed % 4`: dead pixels, gamma,
+/// column gain, crosstalk) at strengths drawn in ranges a camera maker would call a defect
+/// worth knowing: 0.2..0.8 % of pixels at 0..30 % response, gamma 0.85..0.92, column gain sd
+/// 1..3 %, crosstalk 4..10 % to each neighbour.
+#[must_use]
+pub fn random_foreign(seed: u64) -> Foreign {
+    let u: f64 = rng::stream(seed, "gap/testdata/foreign-kind").random();
+    match seed % 4 {
+        0 => Foreign::DeadPixels { fraction: 0.002 + 0.006 * u, response: 0.3 * u },
+        1 => Foreign::Gamma { gamma: 0.85 + 0.07 * u },
+        2 => Foreign::ColumnGain { std_fraction: 0.01 + 0.02 * u },
+        _ => Foreign::Crosstalk { coupling: 0.04 + 0.06 * u },
+    }
+}
+
+/// Simulates `model` over `layout`, applies `foreign` (see [`Foreign::apply`]; the black level
+/// is the model's) and writes the descriptor and images to `dir`.
+pub fn write_dataset_foreign(
+    dir: &Path,
+    model: &GapModel,
+    layout: &Acquisition,
+    seed: u64,
+    foreign: Foreign,
+) -> Result<PathBuf, WriteDataError> {
+    let mut acq = simulate_acquisition(model, layout, seed, None);
+    let bl = model.sensor.effects.black_level;
+    foreign.apply(&mut acq, if bl.enabled { bl.offset_dn } else { 0.0 }, seed);
+    write_acquisition(dir, &acq)
+}

@@ -1,0 +1,313 @@
+//! What the fitted model leaves unexplained: the misfit left after the effect search, tested
+//! against its own sampling distribution.
+//!
+//! The search adds an effect only when it pays its penalty, so misfit that no effect in the
+//! library describes stays behind, spread over the statistics it touches. Whether that
+//! leftover is more than noise is decided by simulation, not by the nominal chi-square: the
+//! final model is simulated `R` more times with fresh noise *and* fresh fixed patterns (a
+//! different camera of the same model, as the measured one is), each replicate is compared
+//! with the final simulation exactly as the measurement was, and each family's chi-square of
+//! the measurement is set against the family's `R` replicate chi-squares.
+//!
+//! The replicates' family chi-squares are summarised as a scaled chi-square `a chi2(nu)`
+//! matching their mean and variance (Satterthwaite's approximation), with two guards for a
+//! small `R`: the variance is taken at the 95 % upper confidence bound of the replicates' sample
+//! variance, and `nu` never exceeds the family's count of statistics. The upper-tail
+//! probability of the measured chi-square under it (Wilson and Hilferty's cube-root normal
+//! approximation) is tested at [`FAMILY_FALSE_ALARM`] per set, Bonferroni-divided over the
+//! families. The measured chi-square is, if anything, low against this null: the search fitted
+//! the model's parameters to the measurement and not to the replicates.
+//!
+//! Where the misfit lives: each statistic's normalised residual is divided by its replicates'
+//! root mean square (its own null spread), and the statistics of an unexplained family beyond
+//! [`LOCATE_SIGMAS`] are listed: which photon-transfer steps (photon range), dark exposures,
+//! spatial statistic (residual, row- or column-profile variance of which stack), periodogram
+//! peak (its frequencies) or tail count (measured against expected pixels).
+
+use serde::Serialize;
+
+use super::stats::{self, Gap, Stats};
+
+/// Replicate simulations of the final model by default.
+pub const DEFAULT_REPLICATES: usize = 8;
+
+/// Probability, per data set, that some family of a correctly modelled camera is reported
+/// unexplained (split evenly over the families compared).
+pub const FAMILY_FALSE_ALARM: f64 = 0.01;
+
+/// A statistic is listed as a place of the misfit beyond this many of its null spreads.
+pub const LOCATE_SIGMAS: f64 = 3.0;
+
+/// Families whose statistics sample one response curve (against photons or exposure).
+pub const CURVE_FAMILIES: [&str; 3] = ["linearity", "photon_transfer", "dark"];
+
+/// Most statistics listed per unexplained family (the largest first).
+const MAX_LISTED: usize = 8;
+
+/// One family's measured chi-square against its replicates.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct FamilyNull {
+    pub family: &'static str,
+    /// Chi-square of the measurement against the final simulation.
+    pub chi2: f64,
+    pub dof: usize,
+    /// Mean and standard deviation of the replicates' chi-squares.
+    pub null_mean: f64,
+    pub null_sd: f64,
+    /// Upper-tail probability of `chi2` under the replicates' scaled chi-square.
+    pub p_value: f64,
+    pub unexplained: bool,
+}
+
+/// One statistic where an unexplained misfit shows.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Place {
+    pub statistic: String,
+    /// The statistic's abscissa (photons, exposure s, cycles per pixel) or 0.
+    pub x: f64,
+    pub measured: f64,
+    /// The final model's value (a tail count: its expectation).
+    pub simulated: f64,
+    /// Normalised residual of the measurement.
+    pub z: f64,
+    /// Root mean square of the replicates' normalised residuals on this statistic.
+    pub null_rms: f64,
+}
+
+/// A family whose misfit is larger than its sampling distribution allows.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Unexplained {
+    pub family: &'static str,
+    /// Indices (into the statistics' entries) of where the misfit lives. In a family of
+    /// separate quantities (spatial, correlation, spectrum, tails) the statistics beyond
+    /// [`LOCATE_SIGMAS`], or all of them when it is spread thinly; in a response curve
+    /// ([`CURVE_FAMILIES`]) all of them, since a curve's misfit anywhere makes any effect fitted
+    /// to its shape doubtful everywhere.
+    #[serde(skip)]
+    pub entries: Vec<usize>,
+    pub p_value: f64,
+    /// A sentence saying where the misfit lives.
+    pub r#where: String,
+    pub statistics: Vec<Place>,
+}
+
+/// The check's result.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct MisfitCheck {
+    pub replicates: usize,
+    pub families: Vec<FamilyNull>,
+    pub unexplained: Vec<Unexplained>,
+}
+
+/// Tests the final misfit of `measured` against `final_stats` (their comparison `final_gap`)
+/// with `replicates` ([`Stats`] of the final model simulated with fresh noise and patterns,
+/// computed with the measured thresholds).
+#[must_use]
+pub fn check(measured: &Stats, final_stats: &Stats, final_gap: &Gap, replicates: &[Stats]) -> MisfitCheck {
+    let nulls: Vec<Gap> = replicates.iter().map(|r| stats::gap(r, final_stats)).collect();
+    let compared = final_gap.families.len().max(1) as f64;
+    let alpha = FAMILY_FALSE_ALARM / compared;
+    // A single statistic far out is tested on its own too, against the largest of its own
+    // replicates' spread, its family's pooled one and 1 (eight replicates cannot show a spread
+    // narrower than nominal reliably), Bonferroni over every statistic.
+    let z_single = stats::normal_tail_inverse(FAMILY_FALSE_ALARM / (2.0 * final_gap.residuals.len().max(1) as f64));
+    let families: Vec<FamilyNull> = final_gap
+        .families
+        .iter()
+        .map(|f| {
+            let samples: Vec<f64> =
+                nulls.iter().filter_map(|g| g.families.iter().find(|x| x.family == f.family).map(|x| x.chi2)).collect();
+            let (mean, var) = mean_var(&samples);
+            let p_chi2 = scaled_chi2_tail(f.chi2, f.dof, mean, var, samples.len());
+            let pooled_rms = (mean / f.dof.max(1) as f64).sqrt();
+            let largest = measured
+                .entries
+                .iter()
+                .enumerate()
+                .filter(|(_, e)| e.family == f.family)
+                .map(|(i, _)| {
+                    let z = final_gap.residuals.get(i).copied().unwrap_or(0.0).abs();
+                    z / null_rms(&nulls, i).max(pooled_rms).max(1.0)
+                })
+                .fold(0.0, f64::max);
+            // The statistic's two-sided tail, scaled by the statistics compared, as a p-value
+            // on the family's scale.
+            let p_single = (2.0 * stats::normal_tail(largest) * final_gap.residuals.len() as f64 / compared).min(1.0);
+            let p_value = if largest > z_single { p_chi2.min(p_single) } else { p_chi2 };
+            FamilyNull {
+                family: f.family,
+                chi2: f.chi2,
+                dof: f.dof,
+                null_mean: mean,
+                null_sd: var.sqrt(),
+                p_value,
+                unexplained: !samples.is_empty() && p_value < alpha,
+            }
+        })
+        .collect();
+    let unexplained = families
+        .iter()
+        .filter(|f| f.unexplained)
+        .map(|f| locate(f, measured, final_stats, final_gap, &nulls))
+        .collect();
+    MisfitCheck { replicates: replicates.len(), families, unexplained }
+}
+
+/// Root mean square of the replicates' normalised residuals on statistic `i`.
+fn null_rms(nulls: &[Gap], i: usize) -> f64 {
+    (nulls.iter().filter_map(|g| g.residuals.get(i)).map(|r| r * r).sum::<f64>() / nulls.len().max(1) as f64).sqrt()
+}
+
+/// Sample mean and (unbiased) variance; variance 0 below two samples.
+fn mean_var(v: &[f64]) -> (f64, f64) {
+    let n = v.len() as f64;
+    if v.is_empty() {
+        return (0.0, 0.0);
+    }
+    let mean = v.iter().sum::<f64>() / n;
+    let var = if v.len() > 1 { v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0) } else { 0.0 };
+    (mean, var)
+}
+
+/// Lower `q` quantile of chi-square with `k` degrees of freedom (Wilson-Hilferty).
+fn chi2_quantile_lower(k: f64, q: f64) -> f64 {
+    let z = -stats::normal_tail_inverse(q);
+    let h = 2.0 / (9.0 * k);
+    (k * (1.0 - h + z * h.sqrt()).powi(3)).max(1e-9)
+}
+
+/// Upper-tail probability of `x` under `a chi2(nu)` matched to a sample of `n` chi-squares with
+/// mean `mean` and variance `var` (the variance at its 95 % upper confidence bound, `nu` at most
+/// `dof`).
+fn scaled_chi2_tail(x: f64, dof: usize, mean: f64, var: f64, n: usize) -> f64 {
+    if n == 0 || mean <= 0.0 {
+        return 1.0;
+    }
+    let var_upper = if n > 1 { var * (n - 1) as f64 / chi2_quantile_lower((n - 1) as f64, 0.05) } else { 0.0 };
+    let nu = if var_upper > 0.0 { (2.0 * mean * mean / var_upper).min(dof as f64) } else { dof as f64 }.max(0.5);
+    let a = mean / nu;
+    // Wilson-Hilferty: (X / nu)^(1/3) is close to normal with mean 1 - 2/(9 nu), variance 2/(9 nu).
+    let h = 2.0 / (9.0 * nu);
+    let z = ((x / a / nu).max(0.0).cbrt() - (1.0 - h)) / h.sqrt();
+    stats::normal_tail(z)
+}
+
+/// The statistics of family `f` where the misfit lives, and a sentence naming them.
+fn locate(f: &FamilyNull, measured: &Stats, final_stats: &Stats, final_gap: &Gap, nulls: &[Gap]) -> Unexplained {
+    let mut places: Vec<(f64, Place, usize)> = measured
+        .entries
+        .iter()
+        .enumerate()
+        .filter(|(_, e)| e.family == f.family)
+        .map(|(i, e)| {
+            let z = final_gap.residuals.get(i).copied().unwrap_or(0.0);
+            let rms = null_rms(nulls, i).max(0.1);
+            let s = final_stats.entries.get(i);
+            let place = Place {
+                statistic: e.label.clone(),
+                x: e.x,
+                measured: e.value,
+                simulated: s.map_or(f64::NAN, |s| s.value + s.count_floor.unwrap_or(0.0)),
+                z,
+                null_rms: rms,
+            };
+            ((z / rms).abs(), place, i)
+        })
+        .collect();
+    places.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.2.cmp(&b.2)));
+    let beyond = places.iter().filter(|p| p.0 > LOCATE_SIGMAS).count();
+    let whole = beyond == 0 || CURVE_FAMILIES.contains(&f.family);
+    let entries: Vec<usize> = places.iter().take(if whole { places.len() } else { beyond }).map(|p| p.2).collect();
+    // A misfit spread thinly over many statistics has no single place: list the largest three.
+    places.truncate(if beyond > 0 { beyond.min(MAX_LISTED) } else { 3 });
+    let statistics: Vec<Place> = places.into_iter().map(|(_, p, _)| p).collect();
+    let r#where = describe(f, &statistics, measured, beyond);
+    Unexplained { family: f.family, entries, p_value: f.p_value, r#where, statistics }
+}
+
+/// One sentence on where the misfit of family `f` lives.
+fn describe(f: &FamilyNull, places: &[Place], measured: &Stats, beyond: usize) -> String {
+    let head = format!(
+        "{}: chi-square {:.1} over {} statistics against {:.1} +- {:.1} in replicates (p {:.1e})",
+        f.family, f.chi2, f.dof, f.null_mean, f.null_sd, f.p_value
+    );
+    if beyond == 0 {
+        return format!("{head}; spread thinly, no statistic beyond {LOCATE_SIGMAS} of its own spread");
+    }
+    let span = |unit: &str| {
+        let lo = places.iter().map(|p| p.x).fold(f64::INFINITY, f64::min);
+        let hi = places.iter().map(|p| p.x).fold(f64::NEG_INFINITY, f64::max);
+        if lo == hi { format!("{lo:.4} {unit}") } else { format!("{lo:.4}..{hi:.4} {unit}") }
+    };
+    let sign = |p: &Place| if p.z > 0.0 { "above" } else { "below" };
+    let detail = match f.family {
+        "linearity" | "photon_transfer" => {
+            let above = places.iter().filter(|p| p.z > 0.0).count();
+            format!(
+                "{beyond} photon-transfer steps beyond {LOCATE_SIGMAS} sigma over {} per pixel; measured {} the model at {above} of the {} listed",
+                span("photons").replace(" photons", ""),
+                if f.family == "linearity" { "mean" } else { "variance" },
+                places.len()
+            )
+        }
+        "dark" => format!("dark pairs at {}", span("s")),
+        "spectrum" => places
+            .iter()
+            .map(|p| {
+                let peak = measured.peaks.iter().find(|k| k.fx_cycles_per_px == p.x);
+                match peak {
+                    Some(k) => format!(
+                        "dark-stack periodogram peak at ({:.3}, {:.3}) cycles/px, {:.1} x median, model {:.1}",
+                        k.fx_cycles_per_px, k.fy_cycles_per_px, p.measured, p.simulated
+                    ),
+                    None => format!("{} {:.1}, model {:.1}", p.statistic, p.measured, p.simulated),
+                }
+            })
+            .collect::<Vec<_>>()
+            .join("; "),
+        "tails" => places
+            .iter()
+            .map(|p| format!("{}: {:.0} measured, {:.1} expected", p.statistic, p.measured, p.simulated))
+            .collect::<Vec<_>>()
+            .join("; "),
+        _ => places
+            .iter()
+            .map(|p| {
+                format!(
+                    "{} measured {} the model ({:.3e} against {:.3e})",
+                    p.statistic,
+                    sign(p),
+                    p.measured,
+                    p.simulated
+                )
+            })
+            .collect::<Vec<_>>()
+            .join("; "),
+    };
+    format!("{head}; {detail}")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn wilson_hilferty_quantile_is_close() {
+        // chi2(7) 5 % lower quantile is 2.167; chi2(30) 5 % is 18.49.
+        assert!((chi2_quantile_lower(7.0, 0.05) - 2.167).abs() < 0.03);
+        assert!((chi2_quantile_lower(30.0, 0.05) - 18.49).abs() < 0.1);
+    }
+
+    #[test]
+    fn tail_of_the_null_mean_is_about_one_half_and_far_values_are_rare() {
+        // Replicates of a plain chi2(20): mean 20, variance 40.
+        let p_mid = scaled_chi2_tail(20.0, 20, 20.0, 40.0, 8);
+        assert!((0.3..0.6).contains(&p_mid), "{p_mid}");
+        // Eight replicates leave the spread uncertain; its upper bound widens the null (nu 6
+        // instead of 20), so four times the mean is rare, six times very rare.
+        assert!(scaled_chi2_tail(80.0, 20, 20.0, 40.0, 8) < 1e-3);
+        assert!(scaled_chi2_tail(120.0, 20, 20.0, 40.0, 8) < 1e-5);
+        // A wider null (correlated statistics) makes the same value less surprising.
+        assert!(scaled_chi2_tail(60.0, 20, 20.0, 400.0, 8) > scaled_chi2_tail(60.0, 20, 20.0, 40.0, 8));
+    }
+}
