@@ -207,12 +207,15 @@ fn run_gap(args: &TargetGapArgs) -> Result<(), CliError> {
         emit(&format!("{text}\n"));
     } else {
         let named = result.named();
+        let unexplained = result.unexplained();
+        let list = |v: Vec<String>| if v.is_empty() { "none".to_string() } else { v.join(", ") };
         emit(&format!(
-            "gap {:.3} -> {:.3} ({:.1} % smaller); named: {}\nreport: {}\n",
+            "gap {:.3} -> {:.3} ({:.1} % smaller); named: {}; unexplained: {}\nreport: {}\n",
             result.gap_initial.gap,
             result.gap_final.gap,
             result.shrink_percent(),
-            if named.is_empty() { "none".to_string() } else { named.join(", ") },
+            list(named),
+            list(unexplained.into_iter().map(String::from).collect()),
             args.out.join("report.md").display()
         ));
     }

@@ -26,7 +26,7 @@
 
 use serde::Serialize;
 
-use super::stats::{self, Gap, Stats};
+use super::stats::{self, Gap, Peak, Stats};
 
 /// Replicate simulations of the final model by default.
 pub const DEFAULT_REPLICATES: usize = 8;
@@ -99,45 +99,92 @@ pub struct MisfitCheck {
     pub unexplained: Vec<Unexplained>,
 }
 
+/// One compared statistic, as the check sees it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Statistic {
+    pub family: &'static str,
+    pub label: String,
+    pub x: f64,
+    pub measured: f64,
+    /// The final model's value (a tail count: its expectation).
+    pub simulated: f64,
+}
+
+/// One comparison against the final model's simulation: chi-square and statistics per family
+/// (`(family, chi2, dof)`) and the normalised residual of every statistic.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Comparison {
+    pub families: Vec<(&'static str, f64, usize)>,
+    pub residuals: Vec<f64>,
+}
+
+impl From<&Gap> for Comparison {
+    fn from(g: &Gap) -> Self {
+        Comparison {
+            families: g.families.iter().map(|f| (f.family, f.chi2, f.dof)).collect(),
+            residuals: g.residuals.clone(),
+        }
+    }
+}
+
 /// Tests the final misfit of `measured` against `final_stats` (their comparison `final_gap`)
 /// with `replicates` ([`Stats`] of the final model simulated with fresh noise and patterns,
 /// computed with the measured thresholds).
 #[must_use]
 pub fn check(measured: &Stats, final_stats: &Stats, final_gap: &Gap, replicates: &[Stats]) -> MisfitCheck {
-    let nulls: Vec<Gap> = replicates.iter().map(|r| stats::gap(r, final_stats)).collect();
-    let compared = final_gap.families.len().max(1) as f64;
+    let nulls: Vec<Comparison> = replicates.iter().map(|r| Comparison::from(&stats::gap(r, final_stats))).collect();
+    let statistics: Vec<Statistic> = measured
+        .entries
+        .iter()
+        .enumerate()
+        .map(|(i, e)| Statistic {
+            family: e.family,
+            label: e.label.clone(),
+            x: e.x,
+            measured: e.value,
+            simulated: final_stats.entries.get(i).map_or(f64::NAN, |s| s.value + s.count_floor.unwrap_or(0.0)),
+        })
+        .collect();
+    test(&statistics, &Comparison::from(final_gap), &nulls, &measured.peaks)
+}
+
+/// The check on any comparison: `statistics` and their `measured` comparison with the final
+/// simulation, against the replicates' comparisons `nulls` (see the module docs). `peaks`: the
+/// measured periodogram peaks, named where a `spectrum` family is unexplained.
+#[must_use]
+pub fn test(statistics: &[Statistic], measured: &Comparison, nulls: &[Comparison], peaks: &[Peak]) -> MisfitCheck {
+    let compared = measured.families.len().max(1) as f64;
     let alpha = FAMILY_FALSE_ALARM / compared;
     // A single statistic far out is tested on its own too, against the largest of its own
     // replicates' spread, its family's pooled one and 1 (eight replicates cannot show a spread
     // narrower than nominal reliably), Bonferroni over every statistic.
-    let z_single = stats::normal_tail_inverse(FAMILY_FALSE_ALARM / (2.0 * final_gap.residuals.len().max(1) as f64));
-    let families: Vec<FamilyNull> = final_gap
+    let z_single = stats::normal_tail_inverse(FAMILY_FALSE_ALARM / (2.0 * measured.residuals.len().max(1) as f64));
+    let families: Vec<FamilyNull> = measured
         .families
         .iter()
-        .map(|f| {
+        .map(|&(family, chi2, dof)| {
             let samples: Vec<f64> =
-                nulls.iter().filter_map(|g| g.families.iter().find(|x| x.family == f.family).map(|x| x.chi2)).collect();
+                nulls.iter().filter_map(|g| g.families.iter().find(|x| x.0 == family).map(|x| x.1)).collect();
             let (mean, var) = mean_var(&samples);
-            let p_chi2 = scaled_chi2_tail(f.chi2, f.dof, mean, var, samples.len());
-            let pooled_rms = (mean / f.dof.max(1) as f64).sqrt();
-            let largest = measured
-                .entries
+            let p_chi2 = scaled_chi2_tail(chi2, dof, mean, var, samples.len());
+            let pooled_rms = (mean / dof.max(1) as f64).sqrt();
+            let largest = statistics
                 .iter()
                 .enumerate()
-                .filter(|(_, e)| e.family == f.family)
+                .filter(|(_, e)| e.family == family)
                 .map(|(i, _)| {
-                    let z = final_gap.residuals.get(i).copied().unwrap_or(0.0).abs();
-                    z / null_rms(&nulls, i).max(pooled_rms).max(1.0)
+                    let z = measured.residuals.get(i).copied().unwrap_or(0.0).abs();
+                    z / null_rms(nulls, i).max(pooled_rms).max(1.0)
                 })
                 .fold(0.0, f64::max);
             // The statistic's two-sided tail, scaled by the statistics compared, as a p-value
             // on the family's scale.
-            let p_single = (2.0 * stats::normal_tail(largest) * final_gap.residuals.len() as f64 / compared).min(1.0);
+            let p_single = (2.0 * stats::normal_tail(largest) * measured.residuals.len() as f64 / compared).min(1.0);
             let p_value = if largest > z_single { p_chi2.min(p_single) } else { p_chi2 };
             FamilyNull {
-                family: f.family,
-                chi2: f.chi2,
-                dof: f.dof,
+                family,
+                chi2,
+                dof,
                 null_mean: mean,
                 null_sd: var.sqrt(),
                 p_value,
@@ -145,16 +192,13 @@ pub fn check(measured: &Stats, final_stats: &Stats, final_gap: &Gap, replicates:
             }
         })
         .collect();
-    let unexplained = families
-        .iter()
-        .filter(|f| f.unexplained)
-        .map(|f| locate(f, measured, final_stats, final_gap, &nulls))
-        .collect();
-    MisfitCheck { replicates: replicates.len(), families, unexplained }
+    let unexplained =
+        families.iter().filter(|f| f.unexplained).map(|f| locate(f, statistics, measured, nulls, peaks)).collect();
+    MisfitCheck { replicates: nulls.len(), families, unexplained }
 }
 
 /// Root mean square of the replicates' normalised residuals on statistic `i`.
-fn null_rms(nulls: &[Gap], i: usize) -> f64 {
+fn null_rms(nulls: &[Comparison], i: usize) -> f64 {
     (nulls.iter().filter_map(|g| g.residuals.get(i)).map(|r| r * r).sum::<f64>() / nulls.len().max(1) as f64).sqrt()
 }
 
@@ -193,21 +237,25 @@ fn scaled_chi2_tail(x: f64, dof: usize, mean: f64, var: f64, n: usize) -> f64 {
 }
 
 /// The statistics of family `f` where the misfit lives, and a sentence naming them.
-fn locate(f: &FamilyNull, measured: &Stats, final_stats: &Stats, final_gap: &Gap, nulls: &[Gap]) -> Unexplained {
-    let mut places: Vec<(f64, Place, usize)> = measured
-        .entries
+fn locate(
+    f: &FamilyNull,
+    statistics: &[Statistic],
+    measured: &Comparison,
+    nulls: &[Comparison],
+    peaks: &[Peak],
+) -> Unexplained {
+    let mut places: Vec<(f64, Place, usize)> = statistics
         .iter()
         .enumerate()
         .filter(|(_, e)| e.family == f.family)
         .map(|(i, e)| {
-            let z = final_gap.residuals.get(i).copied().unwrap_or(0.0);
+            let z = measured.residuals.get(i).copied().unwrap_or(0.0);
             let rms = null_rms(nulls, i).max(0.1);
-            let s = final_stats.entries.get(i);
             let place = Place {
                 statistic: e.label.clone(),
                 x: e.x,
-                measured: e.value,
-                simulated: s.map_or(f64::NAN, |s| s.value + s.count_floor.unwrap_or(0.0)),
+                measured: e.measured,
+                simulated: e.simulated,
                 z,
                 null_rms: rms,
             };
@@ -221,12 +269,12 @@ fn locate(f: &FamilyNull, measured: &Stats, final_stats: &Stats, final_gap: &Gap
     // A misfit spread thinly over many statistics has no single place: list the largest three.
     places.truncate(if beyond > 0 { beyond.min(MAX_LISTED) } else { 3 });
     let statistics: Vec<Place> = places.into_iter().map(|(_, p, _)| p).collect();
-    let r#where = describe(f, &statistics, measured, beyond);
+    let r#where = describe(f, &statistics, peaks, beyond);
     Unexplained { family: f.family, entries, p_value: f.p_value, r#where, statistics }
 }
 
 /// One sentence on where the misfit of family `f` lives.
-fn describe(f: &FamilyNull, places: &[Place], measured: &Stats, beyond: usize) -> String {
+fn describe(f: &FamilyNull, places: &[Place], peaks: &[Peak], beyond: usize) -> String {
     let head = format!(
         "{}: chi-square {:.1} over {} statistics against {:.1} +- {:.1} in replicates (p {:.1e})",
         f.family, f.chi2, f.dof, f.null_mean, f.null_sd, f.p_value
@@ -254,7 +302,7 @@ fn describe(f: &FamilyNull, places: &[Place], measured: &Stats, beyond: usize) -
         "spectrum" => places
             .iter()
             .map(|p| {
-                let peak = measured.peaks.iter().find(|k| k.fx_cycles_per_px == p.x);
+                let peak = peaks.iter().find(|k| k.fx_cycles_per_px == p.x);
                 match peak {
                     Some(k) => format!(
                         "dark-stack periodogram peak at ({:.3}, {:.3}) cycles/px, {:.1} x median, model {:.1}",

@@ -465,5 +465,6 @@ pub fn search(m: &Stats, start: TargetModel, sim: &Simulator, tol: &Tolerance) -
         gap_final,
         steps,
         trials,
+        misfit: None,
     }
 }

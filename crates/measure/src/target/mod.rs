@@ -48,6 +48,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 use serde_json::json;
 
+use crate::gap::misfit::{self, Comparison, MisfitCheck, Statistic};
 use chart::Layout;
 use effects::ImageEffects;
 use scene_gen_camera::camera_spec::ResolvedCamera;
@@ -81,11 +82,20 @@ pub struct LoopOptions {
     /// Seed of the simulated sensor instance's fixed patterns.
     pub pattern_seed: u64,
     pub tolerance: Tolerance,
+    /// Replicate frames of the final model that the leftover misfit is tested against
+    /// ([`crate::gap::misfit`]); 0 skips the test.
+    pub replicates: usize,
 }
 
 impl Default for LoopOptions {
     fn default() -> Self {
-        LoopOptions { seed: 7, frames: 4, pattern_seed: 77, tolerance: Tolerance::default() }
+        LoopOptions {
+            seed: 7,
+            frames: 4,
+            pattern_seed: 77,
+            tolerance: Tolerance::default(),
+            replicates: misfit::DEFAULT_REPLICATES,
+        }
     }
 }
 
@@ -187,9 +197,18 @@ pub struct TargetResult {
     pub gap_final: Gap,
     pub steps: Vec<Step>,
     pub trials: Vec<Trial>,
+    /// The leftover misfit tested against replicate frames of the final model (None: not
+    /// tested).
+    pub misfit: Option<MisfitCheck>,
 }
 
 impl TargetResult {
+    /// Families whose leftover misfit is larger than noise.
+    #[must_use]
+    pub fn unexplained(&self) -> Vec<&'static str> {
+        self.misfit.iter().flat_map(|m| m.unexplained.iter().map(|u| u.family)).collect()
+    }
+
     /// Effects added, in order.
     #[must_use]
     pub fn named(&self) -> Vec<String> {
@@ -211,6 +230,8 @@ impl TargetResult {
             "shrink_percent": self.shrink_percent(),
             "steps": self.steps,
             "named": self.named(),
+            "unexplained": self.misfit.as_ref().map(|m| m.unexplained.clone()).unwrap_or_default(),
+            "misfit_check": self.misfit.as_ref().map(|m| json!({"replicates": m.replicates, "families": m.families})),
             "parts_initial": self.gap_initial.parts,
             "parts_final": self.gap_final.parts,
             "trials": self.trials,
@@ -237,6 +258,7 @@ impl TargetResult {
         for (a, b) in self.gap_initial.parts.iter().zip(&self.gap_final.parts) {
             s += &format!("| {} | {:.3} | {:.3} |\n", a.family, a.value, b.value);
         }
+        s += &self.unexplained_markdown();
         s += "\n## Steps\n\n| effect | params | gap before | gap after | evidence |\n| --- | --- | ---: | ---: | --- |\n";
         for st in &self.steps {
             s += &format!(
@@ -272,6 +294,90 @@ impl TargetResult {
     }
 }
 
+impl TargetResult {
+    /// The "Unexplained" section of report.md.
+    fn unexplained_markdown(&self) -> String {
+        let Some(m) = &self.misfit else { return "\n## Unexplained\n\nNot tested (no replicates).\n".into() };
+        let mut s = format!(
+            "\n## Unexplained\n\nThe final model simulated {} more times with fresh noise and fixed patterns; \
+             each family's chi-square, measured and in the replicates.\n\n\
+             | family | statistics | measured | replicates (mean +- sd) | p | unexplained |\n| --- | ---: | ---: | ---: | ---: | --- |\n",
+            m.replicates
+        );
+        for f in &m.families {
+            s += &format!(
+                "| {} | {} | {:.1} | {:.1} +- {:.1} | {:.2e} | {} |\n",
+                f.family,
+                f.dof,
+                f.chi2,
+                f.null_mean,
+                f.null_sd,
+                f.p_value,
+                if f.unexplained { "**yes**" } else { "no" }
+            );
+        }
+        if m.unexplained.is_empty() {
+            s += "\nNothing is left unexplained.\n";
+        }
+        for u in &m.unexplained {
+            s += &format!("\n- **{}**: {}\n", u.family, u.r#where);
+        }
+        s
+    }
+}
+
+/// The statistics of `measured` beside the final simulation's, in [`stats::FAMILIES`] order
+/// (the order of [`stats::Gap::residuals`]), labelled for the report.
+fn labelled(measured: &Stats, simulated: &Stats) -> Vec<Statistic> {
+    const EDGES: [&str; 4] = [
+        "vertical edge 10-90 % rise",
+        "vertical edge 25-75 % rise",
+        "horizontal edge 10-90 % rise",
+        "horizontal edge 25-75 % rise",
+    ];
+    let mut out = Vec::new();
+    for family in stats::FAMILIES {
+        let (m, s) = (measured.family(family), simulated.family(family));
+        for i in 0..m.len().min(s.len()) {
+            let label = match family {
+                "patch_mean" => format!("patch {i} mean"),
+                "patch_var" => format!("patch {i} variance"),
+                "edge" => EDGES.get(i).map_or_else(|| format!("edge {i}"), |e| (*e).to_string()),
+                "radial" => format!("radial ring {i}"),
+                _ => "ORB keypoints".to_string(),
+            };
+            out.push(Statistic { family, label, x: i as f64, measured: m[i], simulated: s[i] });
+        }
+    }
+    out
+}
+
+/// A target comparison as the misfit test sees it.
+fn comparison(g: &Gap) -> Comparison {
+    let families = g
+        .parts
+        .iter()
+        .filter_map(|p| stats::FAMILIES.iter().find(|f| **f == p.family).map(|f| (*f, p.chi2, p.dof)))
+        .collect();
+    Comparison { families, residuals: g.residuals.clone() }
+}
+
+/// Tests the final misfit against `options.replicates` frames of the final model, each with a
+/// fresh frame seed and fixed-pattern seed (another camera of the same model).
+fn misfit_check(result: &TargetResult, sim: &Simulator, options: &LoopOptions) -> MisfitCheck {
+    let nulls: Vec<Comparison> = (0..options.replicates)
+        .map(|i| {
+            let seed: u64 = rng::substream(options.seed, "target/replicate", i as u64).random();
+            let mut model = result.final_model.clone();
+            model.sensor.pattern_seed = rng::substream(seed, "target/replicate/pattern", 0).random();
+            let replicate = stats::measure(&sim.frame(&model, seed), &sim.layout);
+            comparison(&stats::gap(&replicate, &result.final_sim, &options.tolerance))
+        })
+        .collect();
+    let statistics = labelled(&result.measured, &result.final_sim.mean);
+    misfit::test(&statistics, &comparison(&result.gap_final), &nulls, &[])
+}
+
 /// Runs the loop on a measured image of the chart of `resolved` at `distance_m`.
 pub fn run(
     measured_path: &Path,
@@ -289,5 +395,9 @@ pub fn run(
 pub fn run_image(image: &[f64], resolved: &ResolvedCamera, sim: &Simulator, options: &LoopOptions) -> TargetResult {
     let measured = stats::measure(image, &sim.layout);
     let start = TargetModel { sensor: resolved.sensor_model(options.pattern_seed), optics: ImageEffects::default() };
-    fit::search(&measured, start, sim, &options.tolerance)
+    let mut result = fit::search(&measured, start, sim, &options.tolerance);
+    if options.replicates > 0 {
+        result.misfit = Some(misfit_check(&result, sim, options));
+    }
+    result
 }

@@ -295,6 +295,10 @@ pub struct Gap {
     pub chi2: f64,
     pub n: usize,
     pub parts: Vec<FamilyGap>,
+    /// Signed normalised residual `(measured - simulated) / sigma` per statistic, families in
+    /// [`FAMILIES`] order.
+    #[serde(skip)]
+    pub residuals: Vec<f64>,
 }
 
 /// Squared residuals over variances, per statistic and family (see the module doc).
@@ -302,6 +306,7 @@ pub struct Gap {
 pub fn gap(measured: &Stats, sim: &SimStats, tol: &Tolerance) -> Gap {
     let nf = sim.frames as f64;
     let mut parts = Vec::new();
+    let mut residuals = Vec::new();
     for f in FAMILIES {
         let (m, s, sd) = (measured.family(f), sim.mean.family(f), sim.sd.family(f));
         let mut chi2 = 0.0;
@@ -321,7 +326,9 @@ pub fn gap(measured: &Stats, sim: &SimStats, tol: &Tolerance) -> Gap {
                 "radial" => sd[i] * sd[i] * (1.0 + 1.0 / nf) + (tol.mean_rel * s[i]).powi(2),
                 _ => sd[i] * sd[i] * (1.0 + 1.0 / nf) + (tol.orb_rel * s[i]).max(2.0).powi(2),
             };
-            chi2 += (m[i] - s[i]).powi(2) / var.max(1e-12);
+            let z = (m[i] - s[i]) / var.max(1e-12).sqrt();
+            chi2 += z * z;
+            residuals.push(z);
         }
         let dof = m.len().min(s.len());
         parts.push(FamilyGap {
@@ -333,5 +340,5 @@ pub fn gap(measured: &Stats, sim: &SimStats, tol: &Tolerance) -> Gap {
     }
     let used: Vec<&FamilyGap> = parts.iter().filter(|p| p.dof > 0).collect();
     let gap = used.iter().map(|p| p.value).sum::<f64>() / used.len().max(1) as f64;
-    Gap { gap, chi2: parts.iter().map(|p| p.chi2).sum(), n: parts.iter().map(|p| p.dof).sum(), parts }
+    Gap { gap, chi2: parts.iter().map(|p| p.chi2).sum(), n: parts.iter().map(|p| p.dof).sum(), parts, residuals }
 }
