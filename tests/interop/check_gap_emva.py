@@ -12,15 +12,18 @@ the dark noise is below about half a DN; naming it or not is right either way. O
 case hides nothing or some of: PRNU (a 2 % Gaussian gain map), DSNU (a 3 e- half-normal offset
 map), hot pixels (one pixel in 2,000 offset by 200-2,000 e-).
 
-Gates: the named effects are exactly the expected ones in at least 75 % of the 16
+Where the generator puts the spatial stack above the full well (at 12 bits its stack sits at
+half the ADC range, over the 1,501 DN plateau), a PRNU leaves no trace and is not expected.
+Gates: the named effects are exactly the expected ones in at least 85 % of the 16
 hidden-effect cases (8, 10 and 12 bits at 160x120, and one 640x480 set, above the size where
 `gap` screens candidates on the top rows), and a clean set gets a name outside the expected
-ones in at most 5 % of 30 seeds (8, 10 and 12 bits in turn). Measured: 12 of 16 exact; the
-misses are a 2 % PRNU not found at 12 bits (two sets, whose full well clips at 1,501 DN), a
-DSNU named beside a PRNU at 8 bits, and a
-nonlinearity named on the 640x480 set, whose statistics are four times as precise; false names
-on 1 of 30 clean sets (a nonlinearity at 12 bits). The aim is 90 % exact: the gate holds what
-is reached, so that it fails on any loss.
+ones in at most 5 % of 30 seeds (8, 10 and 12 bits in turn). Measured: 14 of 16 exact; the
+misses are a DSNU named beside a PRNU at 8 bits and the 640x480 set, whose black level is left
+tentative beside unexplained misfit; false names on 1 of 30 clean sets (a nonlinearity at 12
+bits). The aim is 90 % exact: the gate holds what is reached, so that it fails on any loss.
+Unexplained misfit is counted and printed, not gated: the simulator's physics differs from the
+library's where it dithers its rounding after the full-well clip (12 bits) and, by the pattern
+of its dark series, where it clips charge at zero electrons before the gain (8 bits).
 """
 
 import json
@@ -31,6 +34,7 @@ import sys
 import tempfile
 import time
 
+import cv2
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(__file__))
@@ -44,7 +48,7 @@ HIDDEN = ["none", "prnu", "dsnu", "hot_pixels", "dsnu+prnu"]
 NAMING_CASES = [(bits, 160, 120, effect, 10 * bits + i) for bits in (8, 10, 12) for i, effect in enumerate(HIDDEN)]
 NAMING_CASES.append((8, 640, 480, "dsnu+prnu", 5))
 CLEAN_SEEDS = range(1000, 1030)
-MIN_EXACT = 0.75
+MIN_EXACT = 0.85
 MAX_FALSE = 0.05
 
 
@@ -64,6 +68,32 @@ def hidden_maps(effect: str, width: int, height: int, seed: int) -> dict:
     return maps
 
 
+def bright_stack_saturated(descriptor: str) -> bool:
+    """Whether the first frame of the descriptor's bright spatial stack (a bright block of more
+    than two images) sits on the saturation plateau: 95 % of its pixels within one DN of its
+    median."""
+    blocks, current = [], None
+    with open(descriptor) as f:
+        for line in f:
+            parts = line.split()
+            if parts and parts[0] in ("b", "d"):
+                current = {"bright": parts[0] == "b", "images": []}
+                blocks.append(current)
+            elif parts and parts[0] == "i" and current is not None:
+                current["images"].append(parts[1])
+    stacks = [b for b in blocks if b["bright"] and len(b["images"]) > 2]
+    if not stacks:
+        return False
+    # The generator writes Windows separators.
+    path = os.path.join(os.path.dirname(descriptor), stacks[0]["images"][0].replace("\\", "/"))
+    img = cv2.imread(path, cv2.IMREAD_UNCHANGED)
+    if img is None:
+        return False
+    # On the plateau only the rounding dither spreads the pixels, by one DN; shot noise at half
+    # range spreads them by more than one DN even at 8 bits.
+    return bool((np.abs(img.astype(np.float64) - np.median(img)) <= 1.0).mean() > 0.95)
+
+
 def run_case(binary: str, bits: int, width: int, height: int, effect: str, seed: int) -> tuple[set, set, float, list]:
     """The effects `gap` names, the effects the simulated camera has, gap's seconds and the
     families it reports unexplained."""
@@ -77,6 +107,11 @@ def run_case(binary: str, bits: int, width: int, height: int, effect: str, seed:
         if cam.K * cam._u_esat + cam.blackoffset < cam.img_max:
             expected.add("saturation")
         descriptor = generated.descriptor_path if bits == 8 else as_png(folder, generated.descriptor_path)
+        if bright_stack_saturated(descriptor):
+            # The generator puts the spatial stack at half the ADC range, above a full well
+            # that clips lower: every pixel sits on the plateau, and a gain pattern leaves no
+            # trace in the data.
+            expected.discard("prnu")
         t0 = time.perf_counter()
         done = subprocess.run([binary, "gap", descriptor, "--json", "--quiet", "--out", os.path.join(folder, "gap")],
                               capture_output=True, text=True)
@@ -116,7 +151,7 @@ def main(binary: str) -> int:
     print(f"false names on clean sets: {false_names} of {len(CLEAN_SEEDS)} ({100 * false_rate:.1f} %, "
           f"gate {100 * MAX_FALSE:.0f} %)")
     print(f"unexplained misfit reported: {alarms} of {len(NAMING_CASES)} hidden-effect sets, {clean_alarms} of "
-          f"{len(CLEAN_SEEDS)} clean sets (every effect is in the library: false alarms)")
+          f"{len(CLEAN_SEEDS)} clean sets (where the simulator's physics differs from the library's)")
     for m in misses:
         print("miss:", m)
     failed = exact_rate < MIN_EXACT or false_rate > MAX_FALSE
