@@ -1008,7 +1008,19 @@ impl Problem for GapProblem {
     /// effect in the model against the new residuals, each kept only if it lowers the
     /// chi-square, until a pass gains less than 1 (closed forms are only approximate where frames
     /// clip at 0 DN or at the ADC limit).
-    fn polish(&mut self, _: &[&'static str], mut model: GapModel, (mut s, mut g): GapSim) -> (GapModel, GapSim) {
+    fn polish(&mut self, _: &[&'static str], model: GapModel, sim: GapSim) -> (GapModel, GapSim) {
+        let simulations_before = self.ev.counts.get().0;
+        let polished =
+            if self.screen.is_some() { self.polish_screened(model, sim) } else { self.polish_full(model, sim) };
+        log::debug!("polish: {} full simulations", self.ev.counts.get().0 - simulations_before);
+        polished
+    }
+}
+
+impl GapProblem {
+    /// [`Problem::polish`] with every refit simulated in full (frames below
+    /// [`SCREEN_MIN_ROWS`]).
+    fn polish_full(&mut self, mut model: GapModel, (mut s, mut g): GapSim) -> (GapModel, GapSim) {
         for _ in 0..5 {
             let before = g.chi2_total;
             if self.refine {
@@ -1037,6 +1049,59 @@ impl Problem for GapProblem {
                     (model, s, g) = (p, ps, pg);
                 }
             }
+            if before - g.chi2_total < 1.0 {
+                break;
+            }
+        }
+        (model, (s, g))
+    }
+
+    /// [`Problem::polish`] on large frames: within a pass every refit is judged on the
+    /// screening window (a quarter of the cost of a full simulation) from the statistics of the
+    /// pass's start, and only the pass's result is simulated in full; it is kept when the full
+    /// chi-square drops, else the pass is undone and polishing stops. Most of a search's
+    /// simulations were these refits, one full simulation each.
+    fn polish_screened(&mut self, mut model: GapModel, (mut s, mut g): GapSim) -> (GapModel, GapSim) {
+        for _ in 0..5 {
+            let before = g.chi2_total;
+            if self.ev.refit_group_gains(&s) {
+                (s, g) = self.ev.eval(&model);
+            }
+            let start = model.clone();
+            let Some(sc) = self.screen.as_ref() else { break };
+            let mut best = sc.chi2(&self.ev, &model);
+            let mut consider = |p: GapModel, model: &mut GapModel| {
+                let c = sc.chi2(&self.ev, &p);
+                if c < best {
+                    *model = p;
+                    best = c;
+                }
+            };
+            if self.refine {
+                let mut p = model.clone();
+                self.ev.refit_responsivity(&mut p, &s);
+                consider(p, &mut model);
+                let mut p = model.clone();
+                self.ev.refit_gain(&mut p, &s);
+                self.ev.refit_read_noise(&mut p);
+                self.ev.refit_responsivity(&mut p, &s);
+                consider(p, &mut model);
+            }
+            for name in model.named() {
+                let Some(effect) = effect(name) else { continue };
+                let current = (s.clone(), g.clone());
+                let Some((p, _)) = self.propose(effect, &model, &current) else { continue };
+                consider(p, &mut model);
+            }
+            if model == start {
+                break;
+            }
+            let (ps, pg) = self.ev.eval(&model);
+            if pg.chi2_total >= g.chi2_total {
+                model = start;
+                break;
+            }
+            (s, g) = (ps, pg);
             if before - g.chi2_total < 1.0 {
                 break;
             }

@@ -41,14 +41,15 @@
 //! the 2-parameter penalty of 9.5.
 //!
 //! Cost: most of a run is simulating the acquisition (every pixel of every frame draws Poisson
-//! and Gaussian noise: a ziggurat normal and PTRS Poisson in [`scene_gen_camera::sensor::noise`]), about
-//! 150 times. The
+//! and Gaussian noise: a ziggurat normal and PTRS Poisson in [`scene_gen_camera::sensor::noise`]), tens
+//! of times. The
 //! statistics use FFTs ([`stats::periodogram_2d`]) and separable wave tables, the search keeps
 //! its last evaluations ([`fit`]: an unchanged model is not simulated again), and on frames of
 //! 240 rows or more the candidates of a round are screened on the top quarter of the rows
 //! (bit for bit the full simulation's rows, [`simulate_rows`]) and only the best
-//! [`fit::SCREEN_KEEP`] simulated in full ([`GapOptions::screen`]); docs/BENCHMARKS.md has the
-//! figures.
+//! [`fit::SCREEN_KEEP`] simulated in full ([`GapOptions::screen`]), and the refits that polish
+//! the model after each addition are judged on the same window, one full simulation per pass;
+//! docs/BENCHMARKS.md has the figures.
 //!
 //! Inputs ([`run_inputs`]): one descriptor; several descriptors of one camera at different gains
 //! (gain groups; the gains are measured from the response, [`load_acquisitions`]), where
