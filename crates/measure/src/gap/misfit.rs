@@ -18,11 +18,18 @@
 //! families. The measured chi-square is, if anything, low against this null: the search fitted
 //! the model's parameters to the measurement and not to the replicates.
 //!
+//! One statistic far out is not diluted by its family: it is also tested on its own, its
+//! residual over the largest of its replicates' spread, its family's pooled spread and 1,
+//! Bonferroni over every statistic.
+//!
 //! Where the misfit lives: each statistic's normalised residual is divided by its replicates'
 //! root mean square (its own null spread), and the statistics of an unexplained family beyond
 //! [`LOCATE_SIGMAS`] are listed: which photon-transfer steps (photon range), dark exposures,
 //! spatial statistic (residual, row- or column-profile variance of which stack), periodogram
-//! peak (its frequencies) or tail count (measured against expected pixels).
+//! peak (its frequencies) or tail count (measured against expected pixels). The search then
+//! calls an added effect *tentative* when its evidence rests on those statistics
+//! ([`super::GapResult::tentative`]). The test-chart loop runs the same [`test()`] on its own
+//! statistics (`crate::target`).
 
 use serde::Serialize;
 
