@@ -9,30 +9,29 @@
 //! ```
 use scene_gen::gap::testdata;
 use scene_gen::gap::{self, GapOptions};
+use scene_gen::seeds::SeedRange;
 
-fn parse_range(s: &str) -> Option<std::ops::Range<u64>> {
-    let (a, b) = s.split_once("..")?;
-    Some(a.parse().ok()?..b.parse().ok()?)
-}
-
-fn main() {
+fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let seeds = args.first().and_then(|s| parse_range(s)).unwrap_or(0..10);
+    let seeds = args.first().map_or("0..10", String::as_str).parse::<SeedRange>()?;
     let which = args.get(1).map_or("all", String::as_str);
+    if !["all", "library", "foreign"].contains(&which) {
+        return Err(format!("expected all, library or foreign, got '{which}'").into());
+    }
     let dir = std::env::temp_dir().join(format!("scene-gen-gap-unexplained-{}", std::process::id()));
     let (mut lib_sets, mut lib_alarms, mut lib_exact) = (0, 0, 0);
     let (mut foreign_sets, mut foreign_caught, mut foreign_no_false_name) = (0, 0, 0);
     // Per kind: sets, sets whose unexplained families include the kind's own family.
     let mut kinds: Vec<(&'static str, usize, usize)> = Vec::new();
-    for seed in seeds {
+    for seed in seeds.iter() {
         let case = testdata::random_case(seed, (seed % 3) as usize);
         let layout = testdata::layout(&case.model);
         let case_dir = dir.join(format!("case{seed}"));
         let mut hidden: Vec<String> = case.hidden.iter().map(|s| (*s).to_string()).collect();
         hidden.sort();
         if which != "foreign" {
-            let desc = testdata::write_dataset(&case_dir.join("lib"), &case.model, &layout, seed + 1000).unwrap();
-            let r = gap::run(&desc, None, &GapOptions::default()).unwrap();
+            let desc = testdata::write_dataset(&case_dir.join("lib"), &case.model, &layout, seed + 1000)?;
+            let r = gap::run(&desc, None, &GapOptions::default())?;
             let mut named = r.named();
             named.sort();
             let un = r.unexplained();
@@ -46,9 +45,9 @@ fn main() {
         }
         if which != "library" {
             let f = testdata::random_foreign(seed);
-            let desc = testdata::write_dataset_foreign(&case_dir.join("foreign"), &case.model, &layout, seed + 1000, f)
-                .unwrap();
-            let r = gap::run(&desc, None, &GapOptions::default()).unwrap();
+            let desc =
+                testdata::write_dataset_foreign(&case_dir.join("foreign"), &case.model, &layout, seed + 1000, f)?;
+            let r = gap::run(&desc, None, &GapOptions::default())?;
             let mut named = r.named();
             named.sort();
             let un = r.unexplained();
@@ -68,9 +67,7 @@ fn main() {
                 r.tentative()
             );
         }
-        if std::env::var_os("GAP_UNEXPLAINED_KEEP").is_none() {
-            let _ = std::fs::remove_dir_all(&case_dir);
-        }
+        let _ = std::fs::remove_dir_all(&case_dir);
     }
     if lib_sets > 0 {
         println!(
@@ -85,4 +82,5 @@ fn main() {
             println!("  {name}: {own} of {sets} with its own family unexplained");
         }
     }
+    Ok(())
 }

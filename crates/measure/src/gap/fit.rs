@@ -6,14 +6,11 @@
 //! that the effect drives (measured minus currently simulated), divided by the effect's known
 //! sensitivity, so the same code both adds an effect and polishes it after the next one is in.
 
-use rand::Rng as _;
-
 use super::misfit;
 use super::stats::{self, Gap, Stats, Thresholds};
 use super::{Acquisition, GapModel, GapOptions, GapResult, Light, Step, Trial, simulate_acquisition, simulate_rows};
 use crate::search::{self, Effect, Problem};
 use scene_gen_camera::sensor::SensorModel;
-use scene_gen_core::rng;
 
 /// Factor on the BIC penalty of an effect whose evidence is a tail count (`hot_pixels`): its
 /// statistics are Poisson counts scored by their likelihood deviance
@@ -760,9 +757,9 @@ impl Evaluator {
     /// Statistics of replicate `index` of `model`: fresh temporal noise and a fresh fixed
     /// pattern (another camera of the same model), computed as the measurement's are.
     fn replicate(&self, model: &GapModel, index: usize) -> Stats {
-        let seed = rng::substream(self.seed, "gap/replicate", index as u64).random::<u64>();
+        let (seed, pattern_seed) = misfit::replicate_seeds(self.seed, "gap/replicate", index);
         let mut camera = model.clone();
-        camera.sensor.pattern_seed = rng::substream(seed, "gap/replicate/pattern", 0).random::<u64>();
+        camera.sensor.pattern_seed = pattern_seed;
         let sim = simulate_acquisition(&camera, &self.layout, seed, None);
         let mut s = stats::compute(&sim, &self.t);
         if self.reduced {
@@ -1238,10 +1235,13 @@ fn entangled(a: &search::Accepted<GapModel, GapSim>, m: &misfit::MisfitCheck, ln
 /// and after, and the evidence (the drop against the penalty, the families that improved).
 fn step(a: &search::Accepted<GapModel, GapSim>, ln_n: f64) -> Step {
     let (g, tg) = (&a.before.1, &a.accepted.1);
-    let better: Vec<(&stats::FamilyGap, &stats::FamilyGap)> =
-        g.families.iter().zip(&tg.families).filter(|(a, b)| b.chi2 < a.chi2 - 1.0).collect();
-    let improved: Vec<String> =
-        better.iter().map(|(a, b)| format!("{} {:.1} -> {:.1}", a.family, a.chi2_per_dof, b.chi2_per_dof)).collect();
+    let improved: Vec<String> = g
+        .families
+        .iter()
+        .zip(&tg.families)
+        .filter(|(a, b)| b.chi2 < a.chi2 - 1.0)
+        .map(|(a, b)| format!("{} {:.1} -> {:.1}", a.family, a.chi2_per_dof, b.chi2_per_dof))
+        .collect();
     let effect = effect(a.effect).expect("an accepted effect is one of EFFECTS");
     let penalty = effect.penalty_factor() * effect.param_count() as f64 * ln_n;
     Step {
@@ -1256,7 +1256,6 @@ fn step(a: &search::Accepted<GapModel, GapSim>, ln_n: f64) -> Step {
             a.after.1.n,
             if improved.is_empty() { "no family improved by more than 1".to_string() } else { improved.join(", ") }
         ),
-        improved: better.iter().map(|(a, _)| a.family).collect(),
         entangled: Vec::new(),
     }
 }

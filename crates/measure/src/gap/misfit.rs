@@ -31,9 +31,11 @@
 //! ([`super::GapResult::tentative`]). The test-chart loop runs the same [`test()`] on its own
 //! statistics (`crate::target`).
 
+use rand::Rng as _;
 use serde::Serialize;
 
 use super::stats::{self, Gap, Peak, Stats};
+use scene_gen_core::rng;
 
 /// Replicate simulations of the final model by default.
 pub const DEFAULT_REPLICATES: usize = 8;
@@ -106,6 +108,64 @@ pub struct MisfitCheck {
     pub unexplained: Vec<Unexplained>,
 }
 
+impl MisfitCheck {
+    /// The families reported unexplained, in report order.
+    #[must_use]
+    pub fn unexplained_families(&self) -> Vec<&'static str> {
+        self.unexplained.iter().map(|u| u.family).collect()
+    }
+}
+
+/// The seeds of replicate `index` of a check drawn from `seed` under `label`: its frame seed
+/// and its fixed-pattern seed (another camera of the same model).
+#[must_use]
+pub fn replicate_seeds(seed: u64, label: &str, index: usize) -> (u64, u64) {
+    let frame: u64 = rng::substream(seed, label, index as u64).random();
+    (frame, rng::substream(frame, label, u64::MAX).random())
+}
+
+/// report.json's `unexplained` value: the unexplained families with where their misfit lives
+/// (`[]` when none, or when the check did not run).
+#[must_use]
+pub fn unexplained_json(check: Option<&MisfitCheck>) -> serde_json::Value {
+    serde_json::json!(check.map(|m| m.unexplained.clone()).unwrap_or_default())
+}
+
+/// report.json's `misfit_check` value: the replicate count and every family's test (null when
+/// the check did not run).
+#[must_use]
+pub fn check_json(check: Option<&MisfitCheck>) -> serde_json::Value {
+    serde_json::json!(check.map(|m| serde_json::json!({"replicates": m.replicates, "families": m.families})))
+}
+
+/// report.md's "Unexplained" section: each family's leftover chi-square against the replicates
+/// and where an unexplained misfit lives.
+#[must_use]
+pub fn markdown(check: Option<&MisfitCheck>) -> String {
+    let Some(m) = check else { return "\n## Unexplained\n\nNot tested (no replicates).\n".into() };
+    let mut s = format!(
+        "\n## Unexplained\n\nThe final model simulated {} more times with fresh noise and fixed patterns; \
+         each family's chi-square against the final simulation, measured and in the replicates \
+         (a family is unexplained when its p-value is below {FAMILY_FALSE_ALARM} divided over the families).\n\n\
+         | family | statistics | measured | replicates (mean +- sd) | p | unexplained |\n|---|---|---|---|---|---|\n",
+        m.replicates
+    );
+    for f in &m.families {
+        let verdict = if f.unexplained { "**yes**" } else { "no" };
+        s += &format!(
+            "| {} | {} | {:.1} | {:.1} +- {:.1} | {:.2e} | {verdict} |\n",
+            f.family, f.dof, f.chi2, f.null_mean, f.null_sd, f.p_value
+        );
+    }
+    if m.unexplained.is_empty() {
+        s += "\nNothing is left unexplained: every family's misfit is within its sampling spread.\n";
+    }
+    for u in &m.unexplained {
+        s += &format!("\n- **{}**: {}\n", u.family, u.r#where);
+    }
+    s
+}
+
 /// One compared statistic, as the check sees it.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Statistic {
@@ -172,7 +232,7 @@ pub fn test(statistics: &[Statistic], measured: &Comparison, nulls: &[Comparison
         .map(|&(family, chi2, dof)| {
             let samples: Vec<f64> =
                 nulls.iter().filter_map(|g| g.families.iter().find(|x| x.0 == family).map(|x| x.1)).collect();
-            let (mean, var) = mean_var(&samples);
+            let (mean, var) = (stats::mean(&samples), if samples.len() > 1 { stats::var(&samples) } else { 0.0 });
             let p_chi2 = scaled_chi2_tail(chi2, dof, mean, var, samples.len());
             let pooled_rms = (mean / dof.max(1) as f64).sqrt();
             let largest = statistics
@@ -207,17 +267,6 @@ pub fn test(statistics: &[Statistic], measured: &Comparison, nulls: &[Comparison
 /// Root mean square of the replicates' normalised residuals on statistic `i`.
 fn null_rms(nulls: &[Comparison], i: usize) -> f64 {
     (nulls.iter().filter_map(|g| g.residuals.get(i)).map(|r| r * r).sum::<f64>() / nulls.len().max(1) as f64).sqrt()
-}
-
-/// Sample mean and (unbiased) variance; variance 0 below two samples.
-fn mean_var(v: &[f64]) -> (f64, f64) {
-    let n = v.len() as f64;
-    if v.is_empty() {
-        return (0.0, 0.0);
-    }
-    let mean = v.iter().sum::<f64>() / n;
-    let var = if v.len() > 1 { v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0) } else { 0.0 };
-    (mean, var)
 }
 
 /// Lower `q` quantile of chi-square with `k` degrees of freedom (Wilson-Hilferty).
@@ -299,8 +348,8 @@ fn describe(f: &FamilyNull, places: &[Place], peaks: &[Peak], beyond: usize) -> 
         "linearity" | "photon_transfer" => {
             let above = places.iter().filter(|p| p.z > 0.0).count();
             format!(
-                "{beyond} photon-transfer steps beyond {LOCATE_SIGMAS} sigma over {} per pixel; measured {} the model at {above} of the {} listed",
-                span("photons").replace(" photons", ""),
+                "{beyond} photon-transfer steps beyond {LOCATE_SIGMAS} sigma over {}; measured {} the model at {above} of the {} listed",
+                span("photons per pixel"),
                 if f.family == "linearity" { "mean" } else { "variance" },
                 places.len()
             )

@@ -133,6 +133,17 @@ pub enum Light {
     Dark,
 }
 
+impl Light {
+    /// Photons per pixel (0 in the dark).
+    #[must_use]
+    pub fn photons(self) -> f64 {
+        match self {
+            Light::Bright(p) => p,
+            Light::Dark => 0.0,
+        }
+    }
+}
+
 /// One block of an acquisition: a temporal pair or a spatial stack.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Block {
@@ -287,10 +298,7 @@ pub fn simulate_rows(
             if which.is_some_and(|s| !s.contains(&bi)) {
                 return Block { light: b.light, exposure_s: b.exposure_s, group: b.group, frames: Vec::new() };
             }
-            let photons = photon_map(match b.light {
-                Light::Bright(p) => p,
-                Light::Dark => 0.0,
-            });
+            let photons = photon_map(b.light.photons());
             let gain_db = layout.gains_db.get(b.group).copied().unwrap_or(0.0);
             let frames = (0..b.frames.len())
                 .into_par_iter()
@@ -347,10 +355,9 @@ pub struct Step {
     /// Drop of the total chi-square, the BIC penalty it had to beat, and the families that
     /// improved.
     pub evidence: String,
-    /// Families the effect improved when it was added (chi-square down by more than 1).
-    pub improved: Vec<&'static str>,
-    /// Of those, the families left unexplained at the end ([`misfit`]): the effect may stand in
-    /// for what the library lacks, so it is reported as tentative, not named.
+    /// The families left unexplained at the end ([`misfit`]) that the effect's evidence rests
+    /// on: it may stand in for what the library lacks, so it is reported as tentative, not
+    /// named.
     pub entangled: Vec<&'static str>,
 }
 
@@ -407,7 +414,7 @@ impl GapResult {
     /// Families whose leftover misfit is larger than noise ([`misfit`]).
     #[must_use]
     pub fn unexplained(&self) -> Vec<&'static str> {
-        self.misfit.iter().flat_map(|m| m.unexplained.iter().map(|u| u.family)).collect()
+        self.misfit.as_ref().map(misfit::MisfitCheck::unexplained_families).unwrap_or_default()
     }
 }
 

@@ -9,6 +9,7 @@ use std::path::Path;
 use image::{Rgb, RgbImage};
 use serde_json::json;
 
+use super::misfit;
 use super::stats::{self, FAMILIES};
 use super::{GapError, GapResult};
 use scene_gen_core::io::{WriteError, write_atomic};
@@ -46,15 +47,9 @@ pub fn summary_json(result: &GapResult) -> serde_json::Value {
         "steps": result.steps,
         "named": result.named(),
         "tentative": result.tentative(),
-        "unexplained": unexplained_json(result),
+        "unexplained": misfit::unexplained_json(result.misfit.as_ref()),
         "simulations": result.simulations,
     })
-}
-
-/// The unexplained families with where their misfit lives (`[]` when the check found none or
-/// did not run; see `replicates` in report.json).
-fn unexplained_json(result: &GapResult) -> serde_json::Value {
-    json!(result.misfit.as_ref().map(|m| m.unexplained.clone()).unwrap_or_default())
 }
 
 fn full_json(result: &GapResult, source: &str) -> serde_json::Value {
@@ -87,8 +82,8 @@ fn full_json(result: &GapResult, source: &str) -> serde_json::Value {
         "steps": result.steps,
         "named": result.named(),
         "tentative": result.tentative(),
-        "unexplained": unexplained_json(result),
-        "misfit_check": result.misfit.as_ref().map(|m| json!({"replicates": m.replicates, "families": m.families})),
+        "unexplained": misfit::unexplained_json(result.misfit.as_ref()),
+        "misfit_check": misfit::check_json(result.misfit.as_ref()),
         "trials": result.trials,
         "simulations": result.simulations,
         "cached_evaluations": result.cached_evaluations,
@@ -137,7 +132,7 @@ fn markdown(r: &GapResult, source: &str) -> String {
             let _ = writeln!(s, "| {f} | {} | {:.2} | {:.2} |", a.dof, a.chi2_per_dof, b.chi2_per_dof);
         }
     }
-    misfit_section(&mut s, r);
+    s += &misfit::markdown(r.misfit.as_ref());
     let _ = writeln!(
         s,
         "\n## Candidates tried\n\n| round | effect | chi-square drop | BIC penalty | gap after |\n|---|---|---|---|---|"
@@ -168,43 +163,6 @@ fn markdown(r: &GapResult, source: &str) -> String {
          optics effects in optics.toml."
     );
     s
-}
-
-/// The "Unexplained" section: each family's leftover chi-square against the replicates of the
-/// final model, and where an unexplained misfit lives.
-fn misfit_section(s: &mut String, r: &GapResult) {
-    let Some(m) = &r.misfit else {
-        let _ = writeln!(s, "\n## Unexplained\n\nNot tested (no replicates).");
-        return;
-    };
-    let _ = writeln!(
-        s,
-        "\n## Unexplained\n\nThe final model simulated {} more times with fresh noise and fixed patterns; \
-         each family's chi-square against the final simulation, measured and in the replicates \
-         (a family is unexplained when its p-value is below {} divided over the families).\n\n\
-         | family | dof | measured | replicates (mean +- sd) | p | unexplained |\n|---|---|---|---|---|---|",
-        m.replicates,
-        super::misfit::FAMILY_FALSE_ALARM
-    );
-    for f in &m.families {
-        let _ = writeln!(
-            s,
-            "| {} | {} | {:.1} | {:.1} +- {:.1} | {:.2e} | {} |",
-            f.family,
-            f.dof,
-            f.chi2,
-            f.null_mean,
-            f.null_sd,
-            f.p_value,
-            if f.unexplained { "**yes**" } else { "no" }
-        );
-    }
-    if m.unexplained.is_empty() {
-        let _ = writeln!(s, "\nNothing is left unexplained: every family's misfit is within its sampling spread.");
-    }
-    for u in &m.unexplained {
-        let _ = writeln!(s, "\n- **{}**: {}", u.family, u.r#where);
-    }
 }
 
 // ------------------------------------------------------------------ plots

@@ -150,11 +150,12 @@ impl Stats {
     }
 }
 
-fn mean(v: &[f64]) -> f64 {
+pub(super) fn mean(v: &[f64]) -> f64 {
     v.iter().sum::<f64>() / v.len().max(1) as f64
 }
 
-fn var(v: &[f64]) -> f64 {
+/// Sample variance (`n - 1` in the denominator).
+pub(super) fn var(v: &[f64]) -> f64 {
     let m = mean(v);
     v.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / (v.len().max(2) - 1) as f64
 }
@@ -316,14 +317,7 @@ fn pair_stats(a: &[f32], b: &[f32], w: usize, h: usize) -> PairStats {
         .max(diff_var(&col_means(&avg, w, h)) / w as f64);
     let md = mean(&diff);
     let m4 = diff.iter().map(|d| (d - md).powi(4)).sum::<f64>() / n;
-    PairStats {
-        mean_dn: m,
-        var_dn2: v,
-        mean_var,
-        diff_row_var_dn2: var(&row_means(&diff, w, h)),
-        m4,
-        neighbour_corr: neighbour_correlation(&residual(&diff, w, h), w, h),
-    }
+    PairStats { mean_dn: m, var_dn2: v, mean_var, diff_row_var_dn2: var(&row_means(&diff, w, h)), m4 }
 }
 
 /// What [`pair_stats`] measures of a temporal pair.
@@ -337,16 +331,15 @@ struct PairStats {
     diff_row_var_dn2: f64,
     /// Fourth central moment of the difference.
     m4: f64,
-    /// Correlation of the difference with its right-hand and lower neighbour (row and column
-    /// profiles removed).
-    neighbour_corr: (f64, f64),
 }
 
-/// Lag-1 correlation of `r` along x and along y. Every effect of the noise model draws each
-/// pixel's temporal noise on its own (row and column noise aside, which the profiles take
-/// out), so both are 0 within `1 / sqrt(n)`; charge or electrical crosstalk between pixels
-/// makes them positive.
-fn neighbour_correlation(r: &[f64], w: usize, h: usize) -> (f64, f64) {
+/// Lag-1 correlation along x and along y of a pair's difference `(A - B)`, its row and column
+/// profiles removed. Every effect of the noise model draws each pixel's temporal noise on its
+/// own (row and column noise aside, which the profiles take out), so both are 0 within
+/// `1 / sqrt(n)`; charge or electrical crosstalk between pixels makes them positive.
+fn neighbour_correlation(a: &[f32], b: &[f32], w: usize, h: usize) -> (f64, f64) {
+    let diff: Vec<f64> = a.iter().zip(b).map(|(&x, &y)| f64::from(x) - f64::from(y)).collect();
+    let r = residual(&diff, w, h);
     let ss: f64 = r.iter().map(|v| v * v).sum();
     if ss <= 0.0 || w < 2 || h < 2 {
         return (0.0, 0.0);
@@ -461,9 +454,6 @@ fn waves(img: &[f64], w: usize, h: usize) -> (Vec<Peak>, Vec<(f64, f64)>) {
     (peaks, waves)
 }
 
-/// `(cos, sin)` of `2 pi (fx x + fy y)` for every pixel, row-major, from per-column and per-row
-/// tables (`w + h` sin_cos calls instead of `w h`; the product rule differs from the direct
-/// phase by rounding only).
 /// A wave's frequency between the periodogram's bins: the `(fx, fy)` near a grid peak whose
 /// least-squares sinusoid explains most of the image `r` (mean removed; golden-section searches along fx,
 /// fy, then fx again, over one bin of the 2x grid each way), and the fitted amplitude squared.
@@ -498,6 +488,9 @@ fn refine_wave(r: &[f64], w: usize, h: usize, fx: f64, fy: f64) -> (f64, f64, f6
     if x < 0.0 { (-x, -y, a * a + b * b) } else { (x, y, a * a + b * b) }
 }
 
+/// `(cos, sin)` of `2 pi (fx x + fy y)` for every pixel, row-major, from per-column and per-row
+/// tables (`w + h` sin_cos calls instead of `w h`; the product rule differs from the direct
+/// phase by rounding only).
 fn wave_table(w: usize, h: usize, fx: f64, fy: f64) -> Vec<(f64, f64)> {
     let tau = std::f64::consts::TAU;
     let ex: Vec<(f64, f64)> = (0..w).map(|x| (tau * fx * x as f64).sin_cos()).map(|(s, c)| (c, s)).collect();
@@ -655,12 +648,10 @@ pub fn compute(acq: &Acquisition, t: &Thresholds) -> Stats {
     let (mut dark_img, mut bright_img) = (None, None);
     let mut peaks: Vec<Peak> = Vec::new();
     let mut mean_vars = Vec::new();
-    let mut pair_corr = Vec::new();
     for b in &acq.blocks {
         if b.frames.len() == 2 {
             let p = pair_stats(&b.frames[0], &b.frames[1], w, h);
             let (m, v, mv, rv, m4) = (p.mean_dn, p.var_dn2, p.mean_var, p.diff_row_var_dn2, p.m4);
-            pair_corr.push((b.light, b.group, p.neighbour_corr));
             match b.light {
                 Light::Bright(p) => {
                     steps.push(StepStats {
@@ -745,7 +736,7 @@ pub fn compute(acq: &Acquisition, t: &Thresholds) -> Stats {
             count_floor: None,
         });
     }
-    entries.extend(correlation_entries(&pair_corr, n));
+    entries.extend(correlation_entries(acq));
     let nr = ((w.saturating_sub(1)) * (h.saturating_sub(1))).max(1) as f64;
     for (name, s) in [("dark", &dark_stack), ("bright", &bright_stack)] {
         let Some(s) = s else { continue };
@@ -842,36 +833,29 @@ pub fn compute(acq: &Acquisition, t: &Thresholds) -> Stats {
 /// [`neighbour_correlation`]) of the first dark pair of the reference gain and of its middle
 /// bright pair in photons (chosen by the layout alone, so measured and simulated entries are
 /// the same pairs), each `var 1 / n`.
-fn correlation_entries(pairs: &[(Light, usize, (f64, f64))], n: f64) -> Vec<Entry> {
-    let dark = pairs.iter().find(|p| p.0 == Light::Dark && p.1 == 0);
-    let mut bright: Vec<&(Light, usize, (f64, f64))> =
-        pairs.iter().filter(|p| matches!(p.0, Light::Bright(_)) && p.1 == 0).collect();
-    bright.sort_by(|a, b| photons(a.0).total_cmp(&photons(b.0)));
+fn correlation_entries(acq: &Acquisition) -> Vec<Entry> {
+    let (w, h) = (acq.width, acq.height);
+    let pairs = || acq.blocks.iter().filter(|b| b.group == 0 && b.frames.len() == 2);
+    let dark = pairs().find(|b| b.light == Light::Dark);
+    let mut bright: Vec<_> = pairs().filter(|b| b.light != Light::Dark).collect();
+    bright.sort_by(|a, b| a.light.photons().total_cmp(&b.light.photons()));
     let middle = bright.get(bright.len() / 2).copied();
     let mut out = Vec::new();
     for (name, pair) in [("dark", dark), ("middle bright", middle)] {
-        let Some(&(light, _, (cx, cy))) = pair else { continue };
-        let x = photons(light);
+        let Some(b) = pair else { continue };
+        let (cx, cy) = neighbour_correlation(&b.frames[0], &b.frames[1], w, h);
         for (axis, value) in [("x", cx), ("y", cy)] {
             out.push(Entry {
                 family: "correlation",
                 label: format!("{name} pair difference neighbour correlation along {axis}"),
-                x,
+                x: b.light.photons(),
                 value,
-                var: 1.0 / n,
+                var: 1.0 / (w * h) as f64,
                 count_floor: None,
             });
         }
     }
     out
-}
-
-/// Photons per pixel of a block's light (0 for dark).
-fn photons(light: Light) -> f64 {
-    match light {
-        Light::Bright(p) => p,
-        Light::Dark => 0.0,
-    }
 }
 
 /// The families in report order.

@@ -438,7 +438,6 @@ pub fn search(m: &Stats, start: TargetModel, sim: &Simulator, tol: &Tolerance) -
             gap_before: a.before.1.gap,
             gap_after: a.after.1.gap,
             evidence: evidence(&a.before.1, &a.after.1, a.penalty),
-            improved: Vec::new(),
             entangled: Vec::new(),
         })
         .collect();

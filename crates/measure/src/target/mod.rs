@@ -206,7 +206,7 @@ impl TargetResult {
     /// Families whose leftover misfit is larger than noise.
     #[must_use]
     pub fn unexplained(&self) -> Vec<&'static str> {
-        self.misfit.iter().flat_map(|m| m.unexplained.iter().map(|u| u.family)).collect()
+        self.misfit.as_ref().map(MisfitCheck::unexplained_families).unwrap_or_default()
     }
 
     /// Effects added, in order.
@@ -230,8 +230,8 @@ impl TargetResult {
             "shrink_percent": self.shrink_percent(),
             "steps": self.steps,
             "named": self.named(),
-            "unexplained": self.misfit.as_ref().map(|m| m.unexplained.clone()).unwrap_or_default(),
-            "misfit_check": self.misfit.as_ref().map(|m| json!({"replicates": m.replicates, "families": m.families})),
+            "unexplained": misfit::unexplained_json(self.misfit.as_ref()),
+            "misfit_check": misfit::check_json(self.misfit.as_ref()),
             "parts_initial": self.gap_initial.parts,
             "parts_final": self.gap_final.parts,
             "trials": self.trials,
@@ -258,7 +258,7 @@ impl TargetResult {
         for (a, b) in self.gap_initial.parts.iter().zip(&self.gap_final.parts) {
             s += &format!("| {} | {:.3} | {:.3} |\n", a.family, a.value, b.value);
         }
-        s += &self.unexplained_markdown();
+        s += &misfit::markdown(self.misfit.as_ref());
         s += "\n## Steps\n\n| effect | params | gap before | gap after | evidence |\n| --- | --- | ---: | ---: | --- |\n";
         for st in &self.steps {
             s += &format!(
@@ -290,38 +290,6 @@ impl TargetResult {
             "\nORB keypoints: measured {}, simulated initial {:.1}, final {:.1}\n",
             self.measured.orb[0], self.initial_sim.mean.orb[0], self.final_sim.mean.orb[0]
         );
-        s
-    }
-}
-
-impl TargetResult {
-    /// The "Unexplained" section of report.md.
-    fn unexplained_markdown(&self) -> String {
-        let Some(m) = &self.misfit else { return "\n## Unexplained\n\nNot tested (no replicates).\n".into() };
-        let mut s = format!(
-            "\n## Unexplained\n\nThe final model simulated {} more times with fresh noise and fixed patterns; \
-             each family's chi-square, measured and in the replicates.\n\n\
-             | family | statistics | measured | replicates (mean +- sd) | p | unexplained |\n| --- | ---: | ---: | ---: | ---: | --- |\n",
-            m.replicates
-        );
-        for f in &m.families {
-            s += &format!(
-                "| {} | {} | {:.1} | {:.1} +- {:.1} | {:.2e} | {} |\n",
-                f.family,
-                f.dof,
-                f.chi2,
-                f.null_mean,
-                f.null_sd,
-                f.p_value,
-                if f.unexplained { "**yes**" } else { "no" }
-            );
-        }
-        if m.unexplained.is_empty() {
-            s += "\nNothing is left unexplained.\n";
-        }
-        for u in &m.unexplained {
-            s += &format!("\n- **{}**: {}\n", u.family, u.r#where);
-        }
         s
     }
 }
@@ -367,9 +335,9 @@ fn comparison(g: &Gap) -> Comparison {
 fn misfit_check(result: &TargetResult, sim: &Simulator, options: &LoopOptions) -> MisfitCheck {
     let nulls: Vec<Comparison> = (0..options.replicates)
         .map(|i| {
-            let seed: u64 = rng::substream(options.seed, "target/replicate", i as u64).random();
+            let (seed, pattern_seed) = misfit::replicate_seeds(options.seed, "target/replicate", i);
             let mut model = result.final_model.clone();
-            model.sensor.pattern_seed = rng::substream(seed, "target/replicate/pattern", 0).random();
+            model.sensor.pattern_seed = pattern_seed;
             let replicate = stats::measure(&sim.frame(&model, seed), &sim.layout);
             comparison(&stats::gap(&replicate, &result.final_sim, &options.tolerance))
         })
