@@ -56,7 +56,7 @@ fn main() {
         effects,
     };
     let model = GapModel { sensor, optics: Optics::default() };
-    let block = |light, n: usize| Block { light, exposure_s, group: 0, frames: vec![Vec::new(); n] };
+    let block = |light, n: usize| Block::layout(light, exposure_s, 0, n);
     let mut blocks: Vec<Block> = (1..=50).map(|i| block(Light::Bright(1659.66 * f64::from(i)), 2)).collect();
     blocks.push(block(Light::Dark, 2));
     blocks.push(block(Light::Bright(1659.66 * 25.0), stack));

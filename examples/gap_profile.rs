@@ -20,7 +20,7 @@ fn cpu_s() -> f64 {
     f.iter().sum::<f64>() / 100.0
 }
 
-use scene_gen::gap::{self, GapOptions, simulate_acquisition, stats};
+use scene_gen::gap::{self, Draws, GapOptions, simulate_rows, stats};
 
 fn main() {
     let Some(desc) = std::env::args().nth(1).map(std::path::PathBuf::from) else {
@@ -39,12 +39,14 @@ fn main() {
     let t0 = Instant::now();
     let _m = stats::compute(&measured, &t);
     println!("compute(measured) {:.3}s", t0.elapsed().as_secs_f64());
-    let (t0, c0) = (Instant::now(), cpu_s());
-    let sim = simulate_acquisition(&model, &measured, 1288, None);
-    println!("simulate (start model) {:.3}s wall, {:.2}s CPU", t0.elapsed().as_secs_f64(), cpu_s() - c0);
-    let t0 = Instant::now();
-    let _s = stats::compute(&sim, &t);
-    println!("compute(sim) {:.3}s", t0.elapsed().as_secs_f64());
+    for draws in [Draws::Pixels, Draws::Moments] {
+        let (t0, c0) = (Instant::now(), cpu_s());
+        let sim = simulate_rows(&model, &measured, 1288, None, h, &gap::block_draws(&measured, draws));
+        println!("simulate (start model, {draws:?}) {:.3}s wall, {:.2}s CPU", t0.elapsed().as_secs_f64(), cpu_s() - c0);
+        let (t0, c0) = (Instant::now(), cpu_s());
+        let _s = stats::compute(&sim, &t);
+        println!("compute(sim, {draws:?}) {:.3}s wall, {:.2}s CPU", t0.elapsed().as_secs_f64(), cpu_s() - c0);
+    }
     let dark = measured.blocks.iter().find(|b| b.frames.len() > 2 && b.light == gap::Light::Dark).unwrap();
     let img = stats::average(&dark.frames);
     let t0 = Instant::now();
@@ -55,6 +57,8 @@ fn main() {
     println!("remove_waves (2 waves) {:.3}s", t0.elapsed().as_secs_f64());
     let mut full = model.clone();
     let e = &mut full.sensor.effects;
+    e.black_level.enabled = true;
+    e.black_level.offset_dn = 30.0;
     e.dsnu.enabled = true;
     e.dsnu.std_e = 15.0;
     e.prnu.enabled = true;
@@ -65,7 +69,13 @@ fn main() {
     e.periodic_pattern.wave_x_freq_y_cycles_per_px = 0.2;
     e.periodic_pattern.wave_y_freq_x_cycles_per_px = 0.1;
     e.periodic_pattern.freq_y_cycles_per_px = 0.05;
-    let (t0, c0) = (Instant::now(), cpu_s());
-    let _ = simulate_acquisition(&full, &measured, 1288, None);
-    println!("simulate (dsnu, prnu, diagonal waves) {:.3}s wall, {:.2}s CPU", t0.elapsed().as_secs_f64(), cpu_s() - c0);
+    for draws in [Draws::Pixels, Draws::Moments] {
+        let (t0, c0) = (Instant::now(), cpu_s());
+        let _ = simulate_rows(&full, &measured, 1288, None, h, &gap::block_draws(&measured, draws));
+        println!(
+            "simulate (black level, dsnu, prnu, diagonal waves, {draws:?}) {:.3}s wall, {:.2}s CPU",
+            t0.elapsed().as_secs_f64(),
+            cpu_s() - c0
+        );
+    }
 }

@@ -100,6 +100,35 @@ fn hidden_effects_are_named_and_the_gap_shrinks() {
     );
 }
 
+/// On a frame of 240 rows (the smallest the search draws from moments) the moment draws name
+/// what pixel-by-pixel draws name: the hidden black level and hot pixels of case 11, from data
+/// drawn pixel by pixel. Its dark frames clear 0 DN, so its dark blocks are drawn from moments
+/// too (the exact rounded moments of their finely rounded pixels). Moment draws, like pixel
+/// draws, give the same model at any thread count.
+#[test]
+fn moment_draws_name_what_pixel_draws_name() {
+    let dir = temp_dir("moments");
+    let case = testdata::random_case(11, 2);
+    let mut layout = testdata::layout(&case.model);
+    (layout.width, layout.height) = (256, gap::MOMENTS_MIN_ROWS);
+    let desc = testdata::write_dataset(&dir, &case.model, &layout, 1011).unwrap();
+    let measured = gap::load_acquisition(&desc, &GapOptions::default()).unwrap();
+    let draws = gap::block_draws(&measured, gap::Draws::Moments);
+    let mut dark = measured.blocks.iter().zip(&draws).filter(|(b, _)| b.light == gap::Light::Dark);
+    assert!(dark.clone().count() > 0 && dark.all(|(_, d)| *d == gap::Draws::Moments), "{draws:?}");
+    let mut hidden: Vec<String> = case.hidden.iter().map(|s| s.to_string()).collect();
+    hidden.sort();
+    let run = |draws| gap::run(&desc, None, &GapOptions { draws, replicates: 0, ..GapOptions::default() }).unwrap();
+    for draws in [gap::Draws::Pixels, gap::Draws::Moments] {
+        assert_eq!(sorted(run(draws).named()), hidden, "{draws:?}");
+    }
+    // The same model on one thread as on the default pool.
+    let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+    let single = one.install(|| run(gap::Draws::Moments));
+    assert_eq!(single.final_model, run(gap::Draws::Moments).final_model);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// The same data set and seed give the same result: the workflow is deterministic.
 #[test]
 fn same_data_same_result() {
@@ -273,7 +302,7 @@ fn cli_refuses_bad_input_without_output() {
 fn minimal_descriptor_without_stacks() {
     let dir = temp_dir("minimal");
     let case = testdata::random_case(5, 0);
-    let block = |light, n: usize| gap::Block { light, exposure_s: 0.01, group: 0, frames: vec![Vec::new(); n] };
+    let block = |light, n: usize| gap::Block::layout(light, 0.01, 0, n);
     let mut blocks: Vec<gap::Block> = (1..=4).map(|i| block(gap::Light::Bright(2000.0 * f64::from(i)), 2)).collect();
     blocks.push(block(gap::Light::Dark, 2));
     // 64x48: with 16x12 (192 pixels a pair) the fitted K spread by +-30 % over simulation seeds

@@ -42,6 +42,11 @@ pub struct GapArgs {
     /// (report "Unexplained"); 0 skips the test.
     #[arg(long, default_value_t = scene_gen::gap::misfit::DEFAULT_REPLICATES)]
     pub replicates: usize,
+    /// Simulate every pixel of every frame through the noise model instead of drawing pixels
+    /// from their moments where those describe them (frames of 240 rows or more; slower; see
+    /// `scene_gen::gap::Draws`).
+    #[arg(long)]
+    pub pixel_draws: bool,
 }
 
 pub fn run(args: &GapArgs) -> Result<(), CliError> {
@@ -61,6 +66,7 @@ pub fn run(args: &GapArgs) -> Result<(), CliError> {
         max_stack_frames: (args.stack_frames > 0).then_some(args.stack_frames),
         screen: !args.no_screen,
         replicates: args.replicates,
+        draws: if args.pixel_draws { gap::Draws::Pixels } else { gap::Draws::Moments },
         ..GapOptions::default()
     };
     let result = activity("gap", || gap::run_inputs(&args.measured, model, &options)).map_err(bad_input)?;

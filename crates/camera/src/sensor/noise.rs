@@ -585,6 +585,7 @@ impl SensorModel {
             row_sd: if e.row_column_noise.enabled { e.row_column_noise.row_std_dn } else { 0.0 },
             separable: pp.wave_x_freq_y_cycles_per_px == 0.0 && pp.wave_y_freq_x_cycles_per_px == 0.0,
             col_waves,
+            dark_table: std::sync::OnceLock::new(),
         }
     }
 }
@@ -613,6 +614,20 @@ pub struct FrameSimulator<'a> {
     row_sd: f64,
     separable: bool,
     col_waves: Vec<[(f64, f64); 2]>,
+    /// The rounded moments of dark pixels over their fractional offset, built on first use
+    /// ([`FrameSimulator::row_moments`]); `None` when their noise is too fine to tabulate.
+    dark_table: std::sync::OnceLock<Option<RoundingTable>>,
+}
+
+/// What [`FrameSimulator::row_moments`] needs of one pixel.
+struct PixelInputs {
+    /// Poisson mean, electrons: signal, dark current and hot-pixel excess.
+    lambda_e: f64,
+    /// No signal and no hot-pixel excess: the Poisson mean is the frame's dark mean.
+    dark_only: bool,
+    dsnu_e: f64,
+    /// Black level, column offset and periodic pattern, DN.
+    offset_dn: f64,
 }
 
 impl FrameSimulator<'_> {
@@ -630,16 +645,9 @@ impl FrameSimulator<'_> {
     ) -> Vec<T> {
         assert_eq!(photons.len(), self.width * self.height, "photon image size must be width x height");
         let mut out = vec![T::default(); photons.len()];
-        let dispatch = dispatch.supported();
         out.par_chunks_mut(self.width.max(1)).zip(photons.par_chunks(self.width.max(1))).enumerate().for_each(
             |(r, (row_out, row_photons))| {
-                let emit = |c: usize, y: f64| row_out[c] = convert(y);
-                match dispatch {
-                    // SAFETY: `supported()` gives `Avx2Fma` only when this CPU has AVX2 and FMA.
-                    #[cfg(target_arch = "x86_64")]
-                    Dispatch::Avx2Fma => unsafe { self.row_avx2(r, row_photons, emit) },
-                    _ => self.row(r, row_photons, emit),
-                }
+                self.row_dispatched(dispatch, r, row_photons, |c, y| row_out[c] = convert(y));
             },
         );
         out
@@ -803,6 +811,209 @@ impl FrameSimulator<'_> {
         }
     }
 
+    /// [`FrameSimulator::row`] in the build `dispatch` (the AVX2 copy where the CPU has it; the
+    /// same values either way), for callers that simulate a frame row by row.
+    ///
+    /// # Panics
+    /// As [`FrameSimulator::row`].
+    pub fn row_dispatched(&self, dispatch: Dispatch, r: usize, photons: &[f32], emit: impl FnMut(usize, f64)) {
+        match dispatch.supported() {
+            // SAFETY: `supported()` gives `Avx2Fma` only when this CPU has AVX2 and FMA.
+            #[cfg(target_arch = "x86_64")]
+            Dispatch::Avx2Fma => unsafe { self.row_avx2(r, photons, emit) },
+            _ => self.row(r, photons, emit),
+        }
+    }
+
+    /// Standard deviation of the row offset of `row_column_noise`, DN: one draw per row and
+    /// frame, shared by the row's pixels.
+    #[must_use]
+    pub fn row_offset_sd_dn(&self) -> f64 {
+        self.row_sd
+    }
+
+    /// The mean and variance of every pixel of row `r` as this frame's output gives them (after
+    /// rounding and clipping to `u16`), the row offset left out; `false` when the row holds a
+    /// pixel for which the two moments do not describe its output: one within reach of the
+    /// full well or of the ADC's ends, or rounded so finely that rounding shifts its mean.
+    ///
+    /// Away from the clips a pixel's output is `round(A + noise)` with noise of variance `V`:
+    /// shot noise, read noise, post-gain noise and dither. Its mean is `A` up to a periodic
+    /// bias whose size is bounded by the noise's characteristic function at multiples of
+    /// `2 pi` (rounding is a sawtooth; Sheppard's correction holds to the same bound), and
+    /// its variance is `V + 1/12`. The row is accepted when that bound is below
+    /// [`ROUNDING_BIAS_MAX_DN`] for its darkest pixel (the Poisson lattice smooths least where
+    /// the mean is lowest) and every pixel's mean lies eight standard deviations inside the
+    /// clips. The nonlinearity enters through the exact fourth moment of the electrons (the
+    /// mean) and its slope and curvature (the variance).
+    ///
+    /// # Panics
+    /// If `photons`, `mean` or `var` is not one row long, or `r` is outside the frame.
+    #[inline(always)]
+    pub fn row_moments(&self, r: usize, photons: &[f32], mean: &mut [f64], var: &mut [f64]) -> bool {
+        let width = self.width;
+        assert!(
+            photons.len() == width && mean.len() == width && var.len() == width && r < self.height,
+            "row {r} of {} px must be in the frame",
+            photons.len()
+        );
+        let e = &self.model.effects;
+        let k = self.k;
+        let dither_dn = if e.quantization.enabled { e.quantization.dither_dn } else { 0.0 };
+        let extra_var = self.post_sd * self.post_sd + dither_dn * dither_dn / 12.0;
+        let row_var = self.row_sd * self.row_sd;
+        let c = self.nonlinearity_c();
+        let pixels = self.row_inputs(r, photons);
+        // The darkest pixel's electrons and gain slope, for the rounding bound.
+        let (mut lambda_min, mut slope_at_min, mut var_at_min) = (f64::INFINITY, 1.0, 0.0);
+        let (mut below_full_well, mut inside) = (true, true);
+        for (i, px) in pixels.iter().enumerate() {
+            let lambda = px.lambda_e;
+            let mean_e = lambda + px.dsnu_e;
+            let var_e = lambda + self.pre_sd * self.pre_sd;
+            // Eight standard deviations, compared squared (no square root per pixel).
+            let headroom = self.full_well - mean_e;
+            below_full_well &= headroom > 0.0 && headroom * headroom > 64.0 * var_e;
+            let (mu, v) = (k * mean_e, k * k * var_e);
+            let (mut a, mut slope, mut curvature) = (mu, 1.0, 0.0);
+            if c != 0.0 {
+                // E[x^4] from the cumulants of x = k e: Poisson's are all lambda, the read noise
+                // adds to the second.
+                let (k3, k4) = (k * k * k * lambda, k * k * k * k * lambda);
+                let x4 = mu * mu * mu * mu + 6.0 * mu * mu * v + 4.0 * mu * k3 + k4 + 3.0 * v * v;
+                (a, slope, curvature) = (mu + c * x4, 1.0 + 4.0 * c * mu * mu * mu, 12.0 * c * mu * mu);
+            }
+            a += px.offset_dn;
+            let vy = slope * slope * v + 0.5 * curvature * curvature * v * v + extra_var;
+            let (low, high) = (a + 0.5, self.max + 0.5 - a);
+            let reach2 = 64.0 * (vy + row_var);
+            inside &= low > 0.0 && high > 0.0 && low * low > reach2 && high * high > reach2;
+            if lambda < lambda_min {
+                (lambda_min, slope_at_min, var_at_min) = (lambda, slope, vy);
+            }
+            mean[i] = a;
+            var[i] = vy + 1.0 / 12.0;
+        }
+        if !below_full_well {
+            return false;
+        }
+        if inside && self.rounding_is_smooth(lambda_min, slope_at_min, var_at_min, dither_dn) {
+            return true;
+        }
+        dither_dn == 0.0 && self.exact_row_moments(&pixels, mean, var)
+    }
+
+    /// Whether rounding leaves the two moments of a pixel of `lambda_e` mean electrons, gain
+    /// slope `slope` and variance `var_dn2` as `E y` and `Var y + 1/12`
+    /// ([`rounding_error_bounds`]).
+    fn rounding_is_smooth(&self, lambda_e: f64, slope: f64, var_dn2: f64, dither_dn: f64) -> bool {
+        let smooth_var = (self.k * slope * self.pre_sd).powi(2) + self.post_sd * self.post_sd;
+        let r = rounding_error_bounds(lambda_e, self.k * slope, smooth_var, dither_dn, var_dn2);
+        r.mean_dn <= ROUNDING_BIAS_MAX_DN && r.var_dn2 <= ROUNDING_VAR_ERROR_MAX * var_dn2
+    }
+
+    /// `c` of the nonlinearity `g(x) = x + c x^4` (x in DN): `a / max^3`, 0 when it is off.
+    fn nonlinearity_c(&self) -> f64 {
+        let nl = self.model.effects.nonlinearity;
+        if nl.enabled { nl.a / (self.max * self.max * self.max) } else { 0.0 }
+    }
+
+    /// Each pixel of row `r`: its Poisson mean, its DSNU and its fixed offset (black level,
+    /// column offset, periodic pattern), as [`FrameSimulator::row`] adds them.
+    fn row_inputs(&self, r: usize, photons: &[f32]) -> Vec<PixelInputs> {
+        let width = self.width;
+        let p = self.pattern;
+        let span = r * width..(r + 1) * width;
+        let prnu = p.prnu.get(span.clone());
+        let hot = p.hot_e_per_s.get(span.clone());
+        let dsnu = p.dsnu_e.get(span);
+        let column = (p.column_dn.len() == width).then_some(p.column_dn.as_slice());
+        let pp = self.model.effects.periodic_pattern;
+        let rf = r as f64;
+        let two_pi = std::f64::consts::TAU;
+        let row_waves = [
+            (two_pi * pp.wave_x_freq_y_cycles_per_px * rf).sin_cos(),
+            (two_pi * pp.freq_y_cycles_per_px * rf).sin_cos(),
+        ];
+        (0..width)
+            .map(|i| {
+                let sens = prnu.map_or(1.0, |m| 1.0 + f64::from(m[i]));
+                let light_e = self.model.quantum_efficiency * sens * f64::from(photons[i]).max(0.0);
+                let hot_e = hot.map_or(0.0, |m| f64::from(m[i]) * self.exposure_s);
+                let mut offset_dn = self.black + column.map_or(0.0, |m| f64::from(m[i]));
+                if pp.enabled {
+                    let [(sx, cx), (sy, cy)] = self.col_waves[i];
+                    if self.separable {
+                        offset_dn += pp.amplitude_dn * (row_waves[1].0 + sx);
+                    } else {
+                        let [(sxr, cxr), (syr, cyr)] = row_waves;
+                        offset_dn += pp.amplitude_dn * ((sx * cxr + cx * sxr) + (sy * cyr + cy * syr));
+                    }
+                }
+                PixelInputs {
+                    lambda_e: light_e + self.dark_mean + hot_e,
+                    dark_only: light_e == 0.0 && hot_e == 0.0,
+                    dsnu_e: dsnu.map_or(0.0, |m| f64::from(m[i])),
+                    offset_dn,
+                }
+            })
+            .collect()
+    }
+
+    /// The exact moments of a row's rounded, clipped outputs where rounding is too fine for
+    /// `E y` and `Var y + 1/12` ([`rounded_moments`]): dark pixels clear of the clips from one
+    /// table over the fractional offset (they share their Poisson mean), pixels whose own noise
+    /// is smooth enough keep their Gaussian moments, the others are summed one by one; `false`
+    /// when a pixel's sum would take more than [`EXACT_TERMS_MAX`] terms.
+    fn exact_row_moments(&self, pixels: &[PixelInputs], mean: &mut [f64], var: &mut [f64]) -> bool {
+        let k = self.k;
+        let c = self.nonlinearity_c();
+        let smooth_sd = (k * k * self.pre_sd * self.pre_sd + self.post_sd * self.post_sd).sqrt();
+        let row_var = self.row_sd * self.row_sd;
+        // One table serves every dark pixel of the frame, whichever row comes first.
+        let table = || self.dark_table.get_or_init(|| RoundingTable::new(self.dark_mean, k, smooth_sd)).as_ref();
+        for (i, px) in pixels.iter().enumerate() {
+            let base = k * px.dsnu_e + px.offset_dn;
+            let reach = k * poisson_range(px.lambda_e).1 as f64 + 8.0 * (smooth_sd * smooth_sd + row_var).sqrt();
+            let clear = base - reach > 0.5 && base + reach < self.max - 0.5;
+            let straight = c == 0.0 || (c * (base + reach).powi(4)).abs() < ROUNDING_BIAS_MAX_DN;
+            if px.dark_only
+                && clear
+                && straight
+                && let Some(t) = table()
+            {
+                (mean[i], var[i]) = t.moments(base);
+                continue;
+            }
+            let (low, high) = (mean[i] + 0.5, self.max + 0.5 - mean[i]);
+            let reach2 = 64.0 * (var[i] - 1.0 / 12.0 + row_var);
+            let slope = 1.0 + 4.0 * c * (k * (px.lambda_e + px.dsnu_e)).powi(3);
+            let smooth = low > 0.0
+                && high > 0.0
+                && low * low > reach2
+                && high * high > reach2
+                && self.rounding_is_smooth(px.lambda_e, slope, var[i] - 1.0 / 12.0, 0.0);
+            if smooth {
+                continue;
+            }
+            if SumPlan::new(px.lambda_e, k, smooth_sd).terms() > EXACT_TERMS_MAX {
+                return false;
+            }
+            let pixel = RoundedPixel {
+                lambda_e: px.lambda_e,
+                k,
+                dsnu_e: px.dsnu_e,
+                offset_dn: px.offset_dn,
+                nonlinearity_c: c,
+            };
+            let Some((m, v, _)) = rounded_moments(&pixel, smooth_sd, 0.0, self.max, EXACT_TERMS_MAX) else {
+                return false;
+            };
+            (mean[i], var[i]) = (m, v);
+        }
+        true
+    }
+
     /// The final conversion of one value of [`FrameSimulator::row`] to the `u16` of
     /// [`SensorModel::simulate_with`]: rounded (when quantization is off) and clipped to the ADC
     /// range.
@@ -812,6 +1023,218 @@ impl FrameSimulator<'_> {
         // Already whole numbers when quantization is on: no second rounding.
         let y = if self.model.effects.quantization.enabled { y } else { round_exact(y) };
         y.clamp(0.0, self.max) as u16
+    }
+}
+
+/// Largest rounding bias of a pixel's mean, DN, for which [`FrameSimulator::row_moments`]
+/// describes a pixel by its two moments: a seventh of the sampling error of the mean of a
+/// 640x480 pair at 0.6 DN of noise.
+pub const ROUNDING_BIAS_MAX_DN: f64 = 1e-4;
+
+/// Largest error of `V + 1/12` as the variance of a rounded pixel, relative to `V`, for which
+/// [`FrameSimulator::row_moments`] describes a pixel by its two moments: a tenth of the
+/// sampling error of the temporal variance of a 640x480 pair.
+pub const ROUNDING_VAR_ERROR_MAX: f64 = 2.5e-4;
+
+/// Bounds on what rounding to whole DN does to the moments of `round(y)` beyond `E y` and
+/// `Var y + 1/12` (Sheppard).
+struct RoundingErrors {
+    mean_dn: f64,
+    var_dn2: f64,
+}
+
+/// [`RoundingErrors`] for `y = s N + (Gaussian of variance smooth_var) + (uniform of width
+/// dither)`, `N` Poisson of mean `lambda` (lattice step `s` DN), of total variance `var`. With
+/// `phi` the characteristic function of `y` and `p_j = |phi(2 pi j)|`, the sawtooth
+/// `round(y) - y = sum_j (-1)^j sin(2 pi j y) / (pi j)` gives a mean error of at most
+/// `sum_j p_j / (pi j)`, and its square `1/12 + sum_j (-1)^j cos(2 pi j y) / (pi j)^2` and its
+/// covariance with `y` (Stein's identity, Poisson summation of the density at the
+/// half-integers) a variance error of at most `sum_j p_j / (pi j)^2 + 4 var sum_j p_j`. Summed
+/// until the Gaussian factor is below 1e-12; infinite when that takes more than 256 terms (a
+/// noise so fine that nothing can be shown).
+fn rounding_error_bounds(lambda: f64, s: f64, smooth_var: f64, dither: f64, var: f64) -> RoundingErrors {
+    let (pi, two_pi) = (std::f64::consts::PI, std::f64::consts::TAU);
+    let (mut s0, mut s1, mut s2) = (0.0, 0.0, 0.0);
+    for j in 1..=256 {
+        let jf = f64::from(j);
+        let t = two_pi * jf;
+        let gauss = (-0.5 * t * t * smooth_var).exp();
+        let lattice = (-lambda * (1.0 - (s * t).cos())).exp();
+        let uniform = if dither > 0.0 { ((pi * jf * dither).sin() / (pi * jf * dither)).abs() } else { 1.0 };
+        let p = gauss * lattice * uniform;
+        s0 += p;
+        s1 += p / (pi * jf);
+        s2 += p / (pi * jf * pi * jf);
+        if gauss < 1e-12 {
+            return RoundingErrors { mean_dn: s1, var_dn2: s2 + 4.0 * var * s0 };
+        }
+    }
+    RoundingErrors { mean_dn: f64::INFINITY, var_dn2: f64::INFINITY }
+}
+
+/// Most terms of the exact sum of a pixel's rounded moments (one term is an `erfc`, about the cost of
+/// drawing a pixel once): a pixel whose sum would take more (a bright pixel against the ADC's
+/// top or on a coarse Poisson lattice, with hundreds of counts in reach) is not described by
+/// [`FrameSimulator::row_moments`].
+pub const EXACT_TERMS_MAX: usize = 64;
+
+/// A pixel's output before rounding, `y = g(k (N + dsnu)) + offset + noise`, `N` Poisson of
+/// mean `lambda_e`, `g(x) = x + c x^4` ([`rounded_moments`]).
+struct RoundedPixel {
+    lambda_e: f64,
+    k: f64,
+    dsnu_e: f64,
+    offset_dn: f64,
+    nonlinearity_c: f64,
+}
+
+/// How [`rounded_moments`] sums a pixel: over the Poisson counts `n_lo..=n_hi` with Gaussian
+/// noise of `sd` DN each, or, where the lattice of `k` DN per electron is fine against the
+/// Gaussian noise and the Poisson skew is lost in it (`k <= sd / 2`, third cumulant `k^3
+/// lambda` below 1e-3 `sd^3`), one term at the mean with the shot noise added to `sd`.
+struct SumPlan {
+    n_lo: u64,
+    n_hi: u64,
+    sd: f64,
+    collapsed: bool,
+}
+
+impl SumPlan {
+    fn new(lambda: f64, k: f64, smooth_sd: f64) -> SumPlan {
+        let sd = (smooth_sd * smooth_sd + k * k * lambda.max(0.0)).sqrt();
+        if lambda > 0.0 && k <= 0.5 * smooth_sd && k * k * k * lambda <= 1e-3 * sd * sd * sd {
+            return SumPlan { n_lo: 0, n_hi: 0, sd, collapsed: true };
+        }
+        let (n_lo, n_hi) = poisson_range(lambda);
+        SumPlan { n_lo, n_hi, sd: smooth_sd, collapsed: false }
+    }
+
+    /// Terms of the sum, at most (before clipping narrows the windows).
+    fn terms(&self) -> usize {
+        let window = if self.sd > 0.0 { (16.0 * self.sd).ceil() as usize + 2 } else { 1 };
+        (self.n_hi - self.n_lo + 1) as usize * window
+    }
+}
+
+/// The Poisson counts worth summing for mean `lambda`: all but about 1e-12 of the mass (the
+/// upper end by walking the probabilities where the mean is small, eight deviations beyond it
+/// otherwise).
+fn poisson_range(lambda: f64) -> (u64, u64) {
+    if lambda <= 0.0 {
+        return (0, 0);
+    }
+    let spread = 8.0 * lambda.sqrt();
+    let lo = (lambda - spread - 1.0).max(0.0).floor() as u64;
+    if lambda > 30.0 {
+        return (lo, (lambda + spread + 8.0).ceil() as u64);
+    }
+    let (mut p, mut cdf, mut n) = ((-lambda).exp(), (-lambda).exp(), 0u64);
+    while 1.0 - cdf > 1e-12 && n < 200 {
+        n += 1;
+        p *= lambda / n as f64;
+        cdf += p;
+    }
+    (lo, n)
+}
+
+/// Mean and variance of `clamp(round(y), lo, hi)` for the pixel `px` with Gaussian noise of
+/// standard deviation `smooth_sd` DN (read noise through the gain, post-gain noise), summed
+/// exactly over the Poisson counts and the output values within eight deviations of each; the
+/// number of terms it took. `None` when it would take more than `budget` terms.
+fn rounded_moments(px: &RoundedPixel, smooth_sd: f64, lo: f64, hi: f64, budget: usize) -> Option<(f64, f64, usize)> {
+    let plan = SumPlan::new(px.lambda_e, px.k, smooth_sd);
+    let (n_lo, n_hi, smooth_sd) = (plan.n_lo, plan.n_hi, plan.sd);
+    let mut terms = 0usize;
+    let level = |n: f64| {
+        let x = px.k * (n + px.dsnu_e);
+        x + px.nonlinearity_c * x * x * x * x + px.offset_dn
+    };
+    let centre = round_exact(level(px.lambda_e));
+    let cdf = |x: f64, mu: f64| 0.5 * libm::erfc((mu - x) / (smooth_sd * std::f64::consts::SQRT_2));
+    let mut p = if plan.collapsed {
+        1.0
+    } else if px.lambda_e > 0.0 {
+        (-px.lambda_e + n_lo as f64 * px.lambda_e.ln() - ln_factorial(n_lo as f64)).exp()
+    } else {
+        1.0
+    };
+    let (mut s1, mut s2) = (0.0, 0.0);
+    for n in n_lo..=n_hi {
+        let mu = level(if plan.collapsed { px.lambda_e } else { n as f64 });
+        if smooth_sd > 0.0 {
+            let m_lo = (mu - 8.0 * smooth_sd).floor().clamp(lo, hi);
+            let m_hi = (mu + 8.0 * smooth_sd).ceil().clamp(lo, hi);
+            // The lowest value takes all the mass below it, the highest all above it.
+            terms += (m_hi - m_lo) as usize + 1;
+            if terms > budget {
+                return None;
+            }
+            let mut below = 0.0;
+            let mut m = m_lo;
+            while m <= m_hi {
+                let upto = if m >= m_hi { 1.0 } else { cdf(m + 0.5, mu) };
+                let (d, w) = (m - centre, p * (upto - below));
+                s1 += w * d;
+                s2 += w * d * d;
+                below = upto;
+                m += 1.0;
+            }
+        } else {
+            terms += 1;
+            if terms > budget {
+                return None;
+            }
+            let d = round_exact(mu).clamp(lo, hi) - centre;
+            s1 += p * d;
+            s2 += p * d * d;
+        }
+        p *= px.lambda_e / (n + 1) as f64;
+    }
+    Some((centre + s1, s2 - s1 * s1, terms))
+}
+
+/// Nodes of a [`RoundingTable`] over one DN.
+const ROUNDING_TABLE_NODES: usize = 256;
+
+/// Noise below this, DN, is too fine for a [`RoundingTable`]'s linear interpolation (the mean
+/// of a rounded pixel then steps within a few nodes: at 0.1 DN its error reaches 1e-4 DN);
+/// such pixels are summed one by one.
+const ROUNDING_TABLE_MIN_SD: f64 = 0.1;
+
+/// The rounded moments of a dark pixel as functions of its fractional offset: away from the
+/// clips, `E round(y + f + m) = m + E round(y + f)` for whole `m`, so one table over `f` in
+/// [0, 1) serves every dark pixel of a frame, whatever its DSNU, column offset or pattern.
+#[derive(Debug, Clone)]
+struct RoundingTable {
+    /// `(E round(y + f) - f, Var round(y + f))` at `f = j / NODES`, `j = 0..=NODES`.
+    nodes: Vec<(f64, f64)>,
+}
+
+impl RoundingTable {
+    fn new(lambda_e: f64, k: f64, smooth_sd: f64) -> Option<RoundingTable> {
+        if smooth_sd < ROUNDING_TABLE_MIN_SD {
+            return None;
+        }
+        let nodes = (0..=ROUNDING_TABLE_NODES)
+            .map(|j| {
+                let f = j as f64 / ROUNDING_TABLE_NODES as f64;
+                let px = RoundedPixel { lambda_e, k, dsnu_e: 0.0, offset_dn: f, nonlinearity_c: 0.0 };
+                rounded_moments(&px, smooth_sd, f64::NEG_INFINITY, f64::INFINITY, usize::MAX)
+                    .map(|(m, v, _)| (m - f, v))
+            })
+            .collect::<Option<Vec<_>>>()?;
+        Some(RoundingTable { nodes })
+    }
+
+    /// Mean and variance of the rounded output of a dark pixel whose noise-free level is `base`
+    /// DN (without the dark signal).
+    fn moments(&self, base: f64) -> (f64, f64) {
+        let whole = floor_exact(base);
+        let x = (base - whole) * ROUNDING_TABLE_NODES as f64;
+        let j = (x as usize).min(ROUNDING_TABLE_NODES - 1);
+        let t = x - j as f64;
+        let (a, b) = (self.nodes[j], self.nodes[j + 1]);
+        (base + a.0 + t * (b.0 - a.0), a.1 + t * (b.1 - a.1))
     }
 }
 
@@ -1274,6 +1697,99 @@ mod tests {
         let beyond = d.iter().filter(|x| x.abs() > 3.7).count() as f64;
         let expect = nf * 2.0 * scene_gen_core::stats::normal_tail(3.7);
         assert!((beyond - expect).abs() < 5.0 * expect.sqrt(), "beyond 3.7: {beyond}, expected {expect}");
+    }
+
+    /// A 12-bit (or 8-bit) camera with the effects `row_moments` must follow.
+    fn moment_test_model(bits: u32, k: f64, read_noise_e: f64, black_dn: f64, nonlinear: bool) -> SensorModel {
+        moment_test_model_dark(bits, k, read_noise_e, black_dn, nonlinear, 30.0)
+    }
+
+    /// [`moment_test_model`] with its dark current (e-/s); hot pixels only where it is not 0.
+    fn moment_test_model_dark(
+        bits: u32,
+        k: f64,
+        read_noise_e: f64,
+        black_dn: f64,
+        nonlinear: bool,
+        dark_e_per_s: f64,
+    ) -> SensorModel {
+        // DSNU of several DN at the lowest gain, so the row's pixels sit at every fraction of
+        // a DN and rounding shows.
+        let dsnu_e = 0.8 / k;
+        SensorModel {
+            name: "moments".into(),
+            quantum_efficiency: 0.6,
+            system_gain_dn_per_e: k,
+            read_noise_e,
+            adc_bits: bits,
+            pattern_seed: 5,
+            effects: Effects {
+                black_level: BlackLevel { enabled: black_dn > 0.0, offset_dn: black_dn },
+                dark_current: DarkCurrent { enabled: true, rate_e_per_s: dark_e_per_s },
+                quantization: Quantization { enabled: true, dither_dn: 0.0 },
+                nonlinearity: Nonlinearity { enabled: nonlinear, a: -0.03 },
+                dsnu: Dsnu { enabled: true, std_e: dsnu_e },
+                prnu: Prnu { enabled: true, std_fraction: 0.01 },
+                hot_pixels: HotPixels { enabled: dark_e_per_s > 0.0, fraction: 0.01, max_excess_e_per_s: 2000.0 },
+                ..Effects::default()
+            },
+        }
+    }
+
+    #[test]
+    fn row_moments_match_the_pixels_they_describe() {
+        // Each case: the row's predicted mean and variance per pixel against 4000 frames of the
+        // same row drawn pixel by pixel. Over the row, the mean standardised difference of the
+        // means and the mean relative difference of the variances must be within sampling
+        // error, in each regime the moments cover: smooth noise (Gaussian moments), dark
+        // pixels finely rounded (the table), dark pixels clipped at 0 DN (summed one by one);
+        // not described: clipped dark pixels whose dark current puts too many counts in reach,
+        // and a row against the ADC's top.
+        let (w, h, frames) = (64, 4, 4000);
+        // (model, photons, expected to be described)
+        let cases = [
+            (moment_test_model(12, 0.1, 6.0, 60.0, true), 20_000.0f32, true),
+            (moment_test_model(12, 0.1, 4.0, 60.0, false), 0.0, true),
+            (moment_test_model(8, 0.02, 15.0, 8.0, false), 0.0, true),
+            (moment_test_model_dark(12, 0.08, 4.0, 0.0, false, 0.0), 0.0, true),
+            (moment_test_model(12, 0.08, 4.0, 0.0, false), 0.0, false),
+            (moment_test_model(12, 0.1, 6.0, 60.0, false), 67_000.0, false),
+        ];
+        for (ci, (model, photons, described)) in cases.iter().enumerate() {
+            let pattern = model.fixed_pattern(w, h);
+            let ph = vec![*photons; w];
+            let sim = model.frame_simulator(&pattern, 0.02, 0.0, 0);
+            let (mut mean, mut var) = (vec![0.0; w], vec![0.0; w]);
+            let ok = sim.row_moments(1, &ph, &mut mean, &mut var);
+            assert_eq!(ok, *described, "case {ci}: described");
+            if !ok {
+                continue;
+            }
+            let (mut s1, mut s2) = (vec![0.0; w], vec![0.0; w]);
+            for f in 0..frames {
+                let sim = model.frame_simulator(&pattern, 0.02, 0.0, 1000 + f as u64);
+                sim.row(1, &ph, |c, y| {
+                    let v = f64::from(sim.to_u16(y));
+                    s1[c] += v;
+                    s2[c] += v * v;
+                });
+            }
+            // Pooled over the row: the summed difference of the means in units of its sampling
+            // error, and the summed empirical variance against the predicted one (a pixel with
+            // almost no variance, rounded to one value, weighs almost nothing).
+            let n = frames as f64;
+            let (mut diff, mut pred_var, mut emp_var) = (0.0, 0.0, 0.0);
+            for c in 0..w {
+                let m = s1[c] / n;
+                diff += m - mean[c];
+                pred_var += var[c];
+                emp_var += (s2[c] - n * m * m) / (n - 1.0);
+            }
+            let z_mean = diff / (pred_var / n).sqrt();
+            let rel_var = emp_var / pred_var - 1.0;
+            assert!(z_mean.abs() < 4.0, "case {ci}: means off by {z_mean} sigma");
+            assert!(rel_var.abs() < 8.0 * (2.0 / n / w as f64).sqrt(), "case {ci}: variance off by {rel_var}");
+        }
     }
 
     #[test]

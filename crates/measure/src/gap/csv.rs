@@ -103,10 +103,7 @@ pub fn measured(path: &Path) -> Result<(Acquisition, Stats), GapError> {
     let bits = [8u32, 10, 12, 14, 16].into_iter().find(|b| f64::from((1u32 << b) - 1) >= top).unwrap_or(16);
     let width = SIM_WIDTH.min(pixels);
     let height = (pixels / width).max(1);
-    let blocks = points
-        .iter()
-        .map(|p| Block { light: p.light, exposure_s: p.exposure_s, group: p.group, frames: vec![Vec::new(); 2] })
-        .collect();
+    let blocks = points.iter().map(|p| Block::layout(p.light, p.exposure_s, p.group, 2)).collect();
     let layout = Acquisition { width, height, bits, blocks, gains_db: gains.clone() };
     Ok((layout, measured_stats(&points, width * height, &gains)))
 }

@@ -8,7 +8,7 @@
 
 use super::misfit;
 use super::stats::{self, Gap, Stats, Thresholds};
-use super::{Acquisition, GapModel, GapOptions, GapResult, Light, Step, Trial, simulate_acquisition, simulate_rows};
+use super::{Acquisition, Draws, GapModel, GapOptions, GapResult, Light, Step, Trial, simulate_rows};
 use crate::search::{self, Effect, Problem};
 use scene_gen_camera::sensor::SensorModel;
 
@@ -708,6 +708,8 @@ struct Evaluator {
     t: Thresholds,
     m: Stats,
     seed: u64,
+    /// How simulations draw each block's pixels ([`super::block_draws`]).
+    draws: Vec<Draws>,
     /// Index of the first dark pair (for the read-noise refit).
     dark_pair: usize,
     /// The last models evaluated, with the group gains they were simulated at, and their
@@ -726,6 +728,11 @@ type EvalEntry = (GapModel, Vec<f64>, Stats, Gap);
 const EVAL_CACHE: usize = 8;
 
 impl Evaluator {
+    /// The blocks `which` (all when None) of the layout simulated with `model` from `seed`.
+    fn simulate(&self, model: &GapModel, seed: u64, which: Option<&[usize]>) -> Acquisition {
+        simulate_rows(model, &self.layout, seed, which, self.layout.height, &self.draws)
+    }
+
     fn eval(&self, model: &GapModel) -> (Stats, Gap) {
         let hit = self
             .cache
@@ -739,7 +746,7 @@ impl Evaluator {
             return r;
         }
         self.counts.set((sims + 1, hits));
-        let sim = simulate_acquisition(model, &self.layout, self.seed, None);
+        let sim = self.simulate(model, self.seed, None);
         let mut s = stats::compute(&sim, &self.t);
         drop(sim);
         expect_dark_tails(&mut s, model, &self.t);
@@ -760,7 +767,7 @@ impl Evaluator {
         let (seed, pattern_seed) = misfit::replicate_seeds(self.seed, "gap/replicate", index);
         let mut camera = model.clone();
         camera.sensor.pattern_seed = pattern_seed;
-        let sim = simulate_acquisition(&camera, &self.layout, seed, None);
+        let sim = self.simulate(&camera, seed, None);
         let mut s = stats::compute(&sim, &self.t);
         if self.reduced {
             s = s.reduced();
@@ -771,7 +778,7 @@ impl Evaluator {
 
     /// Temporal variance of the simulated first dark pair.
     fn dark_var(&self, model: &GapModel) -> f64 {
-        let sim = simulate_acquisition(model, &self.layout, self.seed, Some(&[self.dark_pair]));
+        let sim = self.simulate(model, self.seed, Some(&[self.dark_pair]));
         let b = &sim.blocks[self.dark_pair];
         let n = b.frames[0].len() as f64;
         let d: Vec<f64> = b.frames[0].iter().zip(&b.frames[1]).map(|(&x, &y)| f64::from(x) - f64::from(y)).collect();
@@ -922,7 +929,7 @@ impl Screen {
         if let Some((_, _, c)) = self.cache.borrow().iter().find(|(m, g, _)| m == model && *g == ev.layout.gains_db) {
             return *c;
         }
-        let sim = simulate_rows(model, &ev.layout, ev.seed, None, self.rows);
+        let sim = simulate_rows(model, &ev.layout, ev.seed, None, self.rows, &ev.draws);
         let mut s = stats::compute(&sim, &ev.t);
         expect_dark_tails(&mut s, model, &ev.t);
         s.thresholds = Some(ev.t);
@@ -1132,6 +1139,7 @@ pub fn search(
         && layout.height >= SCREEN_MIN_ROWS
         && layout.blocks.iter().all(|b| b.frames.iter().all(|f| f.len() == layout.width * layout.height)))
     .then(|| Screen::new(layout, &t));
+    let draws = super::block_draws(layout, options.draws);
     let mut layout = layout.clone();
     layout.blocks.iter_mut().for_each(|b| b.frames = vec![Vec::new(); b.frames.len()]);
     let mut ev = Evaluator {
@@ -1140,6 +1148,7 @@ pub fn search(
         t,
         m,
         seed: options.seed,
+        draws,
         dark_pair,
         cache: Default::default(),
         counts: Default::default(),

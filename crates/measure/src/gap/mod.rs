@@ -6,10 +6,12 @@
 //!    [`crate::calibration`]; K and the read noise then refined by simulation so the photon
 //!    transfer and the dark variance match, which also undoes the bias of dark frames clipped
 //!    at 0 DN), every effect of docs/CONTRACTS.md off except quantization; or a given model.
-//! 2. The acquisition is simulated block by block with [`SensorModel::simulate_with`] (the
-//!    renderer's code path): same exposures, photons per pixel, frame counts and image size;
-//!    fixed seeds, the same for every candidate model (common random numbers, so candidates
-//!    differ by their parameters, not by their noise draws).
+//! 2. The acquisition is simulated block by block through the sensor model's frame simulator
+//!    (the renderer's code path): same exposures, photons per pixel, frame counts and image
+//!    size; fixed seeds, the same for every candidate model (common random numbers, so
+//!    candidates differ by their parameters, not by their noise draws). On large frames the
+//!    search draws each pixel from the two moments of its output wherever they describe it
+//!    ([`Draws::Moments`]), and every pixel of every frame where they do not.
 //! 3. [`stats`] computes the same statistics on both stacks, grouped in families.
 //! 4. The gap: per family the chi-square per degree of freedom of the residuals, each divided
 //!    by its sampling uncertainty (measured and simulated combined); the gap is the mean of
@@ -40,13 +42,19 @@
 //! Gaussian core explains with probability ~1e-7 over the whole crop; its deviance, ~11, beats
 //! the 2-parameter penalty of 9.5.
 //!
-//! Cost: most of a run is simulating the acquisition (every pixel of every frame draws Poisson
-//! and Gaussian noise: a ziggurat normal and PTRS Poisson in [`scene_gen_camera::sensor::noise`]), tens
-//! of times. The
-//! statistics use FFTs ([`stats::periodogram_2d`]) and separable wave tables, the search keeps
-//! its last evaluations ([`fit`]: an unchanged model is not simulated again), and on frames of
-//! 240 rows or more the candidates of a round are screened on the top quarter of the rows
-//! (bit for bit the full simulation's rows, [`simulate_rows`]) and only the best
+//! Cost: most of a run is simulating the acquisition, tens of times. The statistics of a set
+//! are sums over hundreds of thousands of pixels, so on frames of [`MOMENTS_MIN_ROWS`] rows or
+//! more the search draws each pixel from its output's mean and variance ([`Draws::Moments`],
+//! [`FrameSimulator::row_moments`]: shot, read and post-gain noise through the nonlinearity,
+//! with the bias and variance that rounding to whole DN adds summed exactly where the noise is
+//! too fine for Sheppard's correction) and a spatial stack as its mean image, one draw per
+//! pixel. Blocks whose measurement touches 0 DN or the ADC's top, and rows near the full well,
+//! are drawn pixel by pixel as the hidden-effect sets are made ([`Draws::Pixels`],
+//! [`block_draws`]). The statistics use FFTs ([`stats::periodogram_2d`]), separable wave
+//! tables and run their pairs and stacks in parallel; the search keeps its last evaluations
+//! ([`fit`]: an unchanged model is not simulated again) and the last fixed patterns; and on
+//! frames of 240 rows or more the candidates of a round are screened on the top quarter of the
+//! rows (bit for bit the full simulation's rows, [`simulate_rows`]) and only the best
 //! [`fit::SCREEN_KEEP`] simulated in full ([`GapOptions::screen`]), and the refits that polish
 //! the model after each addition are judged on the same window, one full simulation per pass;
 //! docs/BENCHMARKS.md has the figures.
@@ -69,6 +77,7 @@ pub mod stats;
 pub mod testdata;
 
 use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex};
 
 use rand::Rng as _;
 use rayon::prelude::*;
@@ -77,8 +86,9 @@ use serde::{Deserialize, Serialize};
 use crate::calibration::emva::{self, BlockKind, EmvaError};
 use crate::calibration::{self, CalibrationError};
 use scene_gen_camera::sensor::SensorModel;
-use scene_gen_camera::sensor::noise::ModelError;
+use scene_gen_camera::sensor::noise::{FixedPattern, FrameSimulator, ModelError, standard_normal};
 use scene_gen_core::rng;
+use scene_gen_core::simd::Dispatch;
 
 /// The workflow failed.
 #[derive(Debug, thiserror::Error)]
@@ -112,6 +122,10 @@ pub struct GapOptions {
     /// Replicate simulations of the final model that the leftover misfit is tested against
     /// ([`misfit`]); 0 skips the test.
     pub replicates: usize,
+    /// How the search's simulations draw their pixels ([`Draws::Moments`] by default, on
+    /// frames of [`MOMENTS_MIN_ROWS`] rows or more and blocks away from the clips, see
+    /// [`block_draws`]; [`Draws::Pixels`] draws every pixel of every frame, the slow reference).
+    pub draws: Draws,
 }
 
 impl Default for GapOptions {
@@ -122,6 +136,7 @@ impl Default for GapOptions {
             step_stride: 1,
             screen: true,
             replicates: misfit::DEFAULT_REPLICATES,
+            draws: Draws::Moments,
         }
     }
 }
@@ -153,6 +168,26 @@ pub struct Block {
     pub group: usize,
     /// Frames, row-major `width x height` DN values.
     pub frames: Vec<Vec<f32>>,
+    /// The mean image of a spatial stack whose simulation drew it directly ([`Draws::Moments`]);
+    /// `frames` then holds as many empty frames as the stack has.
+    pub average: Option<Vec<f64>>,
+}
+
+impl Block {
+    /// A block of `frames` empty frames: the layout of a measurement, without its pixels.
+    #[must_use]
+    pub fn layout(light: Light, exposure_s: f64, group: usize, frames: usize) -> Block {
+        Block { light, exposure_s, group, frames: vec![Vec::new(); frames], average: None }
+    }
+
+    /// The mean image of the block's frames.
+    #[must_use]
+    pub fn mean_image(&self) -> Vec<f64> {
+        match &self.average {
+            Some(img) => img.clone(),
+            None => stats::average(&self.frames),
+        }
+    }
 }
 
 /// A measured or simulated EMVA 1288 acquisition.
@@ -189,7 +224,7 @@ pub fn load_acquisition(path: &Path, options: &GapOptions) -> Result<Acquisition
         let take = if pair { 2 } else { options.max_stack_frames.unwrap_or(usize::MAX).max(2) };
         let frames =
             b.images.iter().take(take).map(|p| emva::load_image(p, w, h, bits)).collect::<Result<Vec<_>, _>>()?;
-        blocks.push(Block { light, exposure_s: b.exposure_s(), group: 0, frames });
+        blocks.push(Block { light, exposure_s: b.exposure_s(), group: 0, frames, average: None });
     }
     Ok(Acquisition { width: w as usize, height: h as usize, bits, blocks, gains_db: vec![0.0] })
 }
@@ -255,15 +290,68 @@ fn frame_seed(seed: u64, block: usize, frame: usize) -> u64 {
     rng::substream(seed, "gap/frame", ((block as u64) << 24) | frame as u64).random::<u64>()
 }
 
-/// Simulates the blocks `which` of `layout` (all when None) with `model`; other blocks are left
-/// empty. Block `i`, frame `j` always draws from the same seed, whatever else is simulated.
-#[must_use]
-pub fn simulate_acquisition(model: &GapModel, layout: &Acquisition, seed: u64, which: Option<&[usize]>) -> Acquisition {
-    simulate_rows(model, layout, seed, which, layout.height)
+/// How a simulation draws the pixels of its frames.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Draws {
+    /// Every pixel of every frame through the sensor model, as the renderer draws it: Poisson
+    /// shot noise, Gaussian read noise, rounding and clipping. The hidden-effect sets
+    /// ([`testdata`]) are made this way.
+    #[default]
+    Pixels,
+    /// Each pixel from the two moments of its output, Gaussian, in every row where they
+    /// describe it ([`FrameSimulator::row_moments`]: below the full well, and the bias and
+    /// variance that rounding and the ADC's ends add summed exactly where they matter); other
+    /// rows as [`Draws::Pixels`]. A spatial stack is drawn as its mean image, one draw per
+    /// pixel, since its statistics read nothing else. The statistics of a block are sums over
+    /// its pixels, which see no difference between the two, and a moment draw costs a fraction
+    /// of a Poisson draw and a stack of L frames `1 / L` of them. Every row drawn from moments
+    /// draws the same normal deviates whatever the model, so candidates keep their common
+    /// random numbers; the search draws from moments only the blocks its measurement shows
+    /// away from the clips, where every candidate near the data is described too
+    /// ([`block_draws`]).
+    Moments,
 }
 
-/// [`simulate_acquisition`] cut to the first `rows` rows of the sensor: every fixed-pattern map
-/// and every frame's temporal noise is drawn row by row from its own substream, and the
+/// Simulates the blocks `which` of `layout` (all when None) with `model`, pixel by pixel
+/// ([`Draws::Pixels`]); other blocks are left empty. Block `i`, frame `j` always draws from the
+/// same seed, whatever else is simulated.
+#[must_use]
+pub fn simulate_acquisition(model: &GapModel, layout: &Acquisition, seed: u64, which: Option<&[usize]>) -> Acquisition {
+    simulate_rows(model, layout, seed, which, layout.height, &[])
+}
+
+/// Frames of fewer rows are drawn pixel by pixel whatever [`GapOptions::draws`] says: a
+/// block's moments cost about as much as drawing a few hundred thousand pixels where rounding
+/// must be summed exactly, which pays on large frames only.
+pub const MOMENTS_MIN_ROWS: usize = 240;
+
+/// How the search draws each block of `measured` under `draws`: [`Draws::Moments`] only on
+/// frames of at least [`MOMENTS_MIN_ROWS`] rows and for blocks whose frames hold no pixel at
+/// 0 DN or at the ADC's top (one in ten thousand allowed: a hot or dead pixel), so no
+/// candidate near the data switches a block between the two ways of drawing; the others pixel
+/// by pixel.
+#[must_use]
+pub fn block_draws(measured: &Acquisition, draws: Draws) -> Vec<Draws> {
+    let draws = if measured.height < MOMENTS_MIN_ROWS { Draws::Pixels } else { draws };
+    let top = f32::from(u16::try_from((1u32 << measured.bits) - 1).unwrap_or(u16::MAX));
+    measured
+        .blocks
+        .iter()
+        .map(|b| {
+            let values = b.frames.iter().map(Vec::len).sum::<usize>();
+            let clipped = b.frames.iter().flatten().filter(|&&v| v <= 0.0 || v >= top).count();
+            if draws == Draws::Moments && values > 0 && clipped * 10_000 <= values {
+                Draws::Moments
+            } else {
+                Draws::Pixels
+            }
+        })
+        .collect()
+}
+
+/// [`simulate_acquisition`] cut to the first `rows` rows of the sensor, block `i` drawn as
+/// `draws[i]` says ([`Draws::Pixels`] past its end): every fixed-pattern map and every frame's temporal noise is drawn row by row from its own
+/// substream, whether a row is drawn from its moments depends on that row alone, and the
 /// fall-off map is the full sensor's, so these rows are bit for bit the full simulation's.
 #[must_use]
 pub fn simulate_rows(
@@ -272,12 +360,13 @@ pub fn simulate_rows(
     seed: u64,
     which: Option<&[usize]>,
     rows: usize,
+    draws: &[Draws],
 ) -> Acquisition {
     let (w, full_h) = (layout.width, layout.height);
     let h = rows.min(full_h);
     let mut sensor = model.sensor.clone();
     sensor.adc_bits = layout.bits;
-    let pattern = sensor.fixed_pattern(w, h);
+    let pattern = fixed_pattern(&sensor, w, h);
     let falloff = model.optics.illumination_falloff;
     let r2 = falloff.enabled.then(|| {
         let mut r2 = radius2_map(w, full_h);
@@ -295,22 +384,158 @@ pub fn simulate_rows(
         .iter()
         .enumerate()
         .map(|(bi, b)| {
+            let (light, exposure_s, group) = (b.light, b.exposure_s, b.group);
             if which.is_some_and(|s| !s.contains(&bi)) {
-                return Block { light: b.light, exposure_s: b.exposure_s, group: b.group, frames: Vec::new() };
+                return Block::layout(light, exposure_s, group, 0);
             }
-            let photons = photon_map(b.light.photons());
-            let gain_db = layout.gains_db.get(b.group).copied().unwrap_or(0.0);
-            let frames = (0..b.frames.len())
-                .into_par_iter()
-                .map(|fi| {
-                    let dn = sensor.simulate_with(&pattern, &photons, b.exposure_s, gain_db, frame_seed(seed, bi, fi));
-                    dn.into_iter().map(f32::from).collect()
-                })
-                .collect();
-            Block { light: b.light, exposure_s: b.exposure_s, group: b.group, frames }
+            let photons = photon_map(light.photons());
+            let gain_db = layout.gains_db.get(group).copied().unwrap_or(0.0);
+            let seeds: Vec<u64> = (0..b.frames.len()).map(|fi| frame_seed(seed, bi, fi)).collect();
+            let sims: Vec<FrameSimulator> =
+                seeds.iter().map(|&s| sensor.frame_simulator(&pattern, exposure_s, gain_db, s)).collect();
+            match draws.get(bi).copied().unwrap_or_default() {
+                Draws::Pixels => {
+                    let frames = sims
+                        .par_iter()
+                        .map(|sim| {
+                            let mut out = vec![0f32; w * h];
+                            out.par_chunks_mut(w.max(1))
+                                .zip(photons.par_chunks(w.max(1)))
+                                .enumerate()
+                                .for_each(|(r, (row, ph))| pixel_row(sim, r, ph, row));
+                            out
+                        })
+                        .collect();
+                    Block { light, exposure_s, group, frames, average: None }
+                }
+                Draws::Moments if sims.len() > 2 => {
+                    let average = moment_stack(&sims, &photons, seeds[0], w);
+                    Block { average: Some(average), ..Block::layout(light, exposure_s, group, sims.len()) }
+                }
+                Draws::Moments => {
+                    let frames = moment_frames(&sims, &photons, &seeds, w);
+                    Block { light, exposure_s, group, frames, average: None }
+                }
+            }
         })
         .collect();
     Acquisition { width: w, height: h, bits: layout.bits, blocks, gains_db: layout.gains_db.clone() }
+}
+
+/// The fixed patterns of `sensor` at `w x h`, from a cache of the last few: a search's
+/// candidates mostly share them (a refit of K, the read noise or the black level leaves them
+/// as they were), and drawing a 640x480 sensor's maps costs about a tenth of a simulation. A
+/// pattern is a function of its key alone, so the cache never changes a value.
+fn fixed_pattern(sensor: &SensorModel, w: usize, h: usize) -> Arc<FixedPattern> {
+    type Key = (u64, usize, usize, [u64; 5]);
+    static CACHE: Mutex<Vec<(Key, Arc<FixedPattern>)>> = Mutex::new(Vec::new());
+    let e = &sensor.effects;
+    let on = |enabled: bool, v: f64| if enabled { v.to_bits() } else { u64::MAX };
+    let key: Key = (
+        sensor.pattern_seed,
+        w,
+        h,
+        [
+            on(e.dsnu.enabled, e.dsnu.std_e),
+            on(e.prnu.enabled, e.prnu.std_fraction),
+            on(e.hot_pixels.enabled, e.hot_pixels.fraction),
+            on(e.hot_pixels.enabled, e.hot_pixels.max_excess_e_per_s),
+            on(e.row_column_noise.enabled, e.row_column_noise.column_std_dn),
+        ],
+    );
+    let lock = || CACHE.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    if let Some((_, p)) = lock().iter().find(|(k, _)| *k == key) {
+        return Arc::clone(p);
+    }
+    let pattern = Arc::new(sensor.fixed_pattern(w, h));
+    let mut cache = lock();
+    cache.insert(0, (key, Arc::clone(&pattern)));
+    cache.truncate(4);
+    pattern
+}
+
+/// Row `r` of one frame, pixel by pixel ([`Draws::Pixels`]), as DN.
+fn pixel_row(sim: &FrameSimulator, r: usize, photons: &[f32], out: &mut [f32]) {
+    sim.row_dispatched(Dispatch::current(), r, photons, |c, y| out[c] = f32::from(sim.to_u16(y)));
+}
+
+/// The moments of every pixel of a block ([`FrameSimulator::row_moments`], the same for every
+/// frame of it): per-pixel mean and standard deviation, and which rows they describe.
+struct BlockMoments {
+    mean: Vec<f64>,
+    sd: Vec<f64>,
+    described: Vec<bool>,
+}
+
+impl BlockMoments {
+    fn of(sim: &FrameSimulator, photons: &[f32], w: usize) -> BlockMoments {
+        let (mut mean, mut sd) = (vec![0.0; photons.len()], vec![0.0; photons.len()]);
+        let described = mean
+            .par_chunks_mut(w.max(1))
+            .zip(sd.par_chunks_mut(w.max(1)))
+            .zip(photons.par_chunks(w.max(1)))
+            .enumerate()
+            .map(|(r, ((m, v), ph))| {
+                let ok = sim.row_moments(r, ph, m, v);
+                v.iter_mut().for_each(|x| *x = x.sqrt());
+                ok
+            })
+            .collect();
+        BlockMoments { mean, sd, described }
+    }
+}
+
+/// The frames of a block drawn by [`Draws::Moments`]: row `r` of frame `f` from
+/// `rng::substream(seeds[f], "gap/moments", r)` (its row offset, then its pixels).
+fn moment_frames(sims: &[FrameSimulator], photons: &[f32], seeds: &[u64], w: usize) -> Vec<Vec<f32>> {
+    let moments = BlockMoments::of(&sims[0], photons, w);
+    sims.iter()
+        .zip(seeds)
+        .map(|(sim, &seed)| {
+            let mut out = vec![0f32; photons.len()];
+            out.par_chunks_mut(w.max(1)).zip(photons.par_chunks(w.max(1))).enumerate().for_each(|(r, (row, ph))| {
+                if !moments.described[r] {
+                    pixel_row(sim, r, ph, row);
+                    return;
+                }
+                let span = r * w..(r + 1) * w;
+                let mut rng = rng::substream(seed, "gap/moments", r as u64);
+                let offset = sim.row_offset_sd_dn() * standard_normal(&mut rng);
+                for ((o, m), sd) in row.iter_mut().zip(&moments.mean[span.clone()]).zip(&moments.sd[span]) {
+                    *o = (m + offset + sd * standard_normal(&mut rng)) as f32;
+                }
+            });
+            out
+        })
+        .collect()
+}
+
+/// The mean image of a stack drawn by [`Draws::Moments`]: each pixel of a row its moments
+/// describe from the mean and variance of an average of L frames (the row offset averaged
+/// too), from `rng::substream(seed, "gap/moments-stack", r)`; other rows as the average of
+/// their L frames drawn pixel by pixel.
+fn moment_stack(sims: &[FrameSimulator], photons: &[f32], seed: u64, w: usize) -> Vec<f64> {
+    let l = sims.len() as f64;
+    let moments = BlockMoments::of(&sims[0], photons, w);
+    let mut out = vec![0f64; photons.len()];
+    out.par_chunks_mut(w.max(1)).zip(photons.par_chunks(w.max(1))).enumerate().for_each(|(r, (row, ph))| {
+        if moments.described[r] {
+            let span = r * w..(r + 1) * w;
+            let mut rng = rng::substream(seed, "gap/moments-stack", r as u64);
+            let offset = sims[0].row_offset_sd_dn() / l.sqrt() * standard_normal(&mut rng);
+            for ((o, m), sd) in row.iter_mut().zip(&moments.mean[span.clone()]).zip(&moments.sd[span]) {
+                *o = m + offset + sd / l.sqrt() * standard_normal(&mut rng);
+            }
+        } else {
+            let mut frame_row = vec![0f32; w];
+            for sim in sims {
+                pixel_row(sim, r, ph, &mut frame_row);
+                row.iter_mut().zip(&frame_row).for_each(|(o, &v)| *o += f64::from(v));
+            }
+            row.iter_mut().for_each(|o| *o /= l);
+        }
+    });
+    out
 }
 
 impl Acquisition {
@@ -326,6 +551,7 @@ impl Acquisition {
                 exposure_s: b.exposure_s,
                 group: b.group,
                 frames: b.frames.iter().map(|f| f[..(self.width * h).min(f.len())].to_vec()).collect(),
+                average: b.average.as_ref().map(|a| a[..(self.width * h).min(a.len())].to_vec()),
             })
             .collect();
         Acquisition { width: self.width, height: h, bits: self.bits, blocks, gains_db: self.gains_db.clone() }

@@ -27,6 +27,7 @@
 //! Behaviour near saturation is in `linearity` and `photon_transfer` (mean plateau, variance
 //! collapse at the top steps).
 
+use rayon::prelude::*;
 use serde::Serialize;
 
 use super::{Acquisition, Light, radius2_map};
@@ -185,12 +186,12 @@ fn residual(img: &[f64], w: usize, h: usize) -> Vec<f64> {
 
 /// Median absolute deviation scaled to a Gaussian standard deviation.
 fn robust_sd(v: &[f64]) -> f64 {
+    // Selections, not sorts: the same elements, in linear time.
     let mut s = v.to_vec();
-    s.sort_by(f64::total_cmp);
-    let med = s[s.len() / 2];
-    let mut d: Vec<f64> = s.iter().map(|x| (x - med).abs()).collect();
-    d.sort_by(f64::total_cmp);
-    1.4826 * d[d.len() / 2]
+    let mid = s.len() / 2;
+    let med = *s.select_nth_unstable_by(mid, f64::total_cmp).1;
+    s.iter_mut().for_each(|x| *x = (*x - med).abs());
+    1.4826 * *s.select_nth_unstable_by(mid, f64::total_cmp).1
 }
 
 fn stack_mean(frames: &[Vec<f32>]) -> Vec<f64> {
@@ -301,23 +302,44 @@ pub fn average(frames: &[Vec<f32>]) -> Vec<f64> {
     stack_mean(frames)
 }
 
-/// The statistics of a temporal pair.
+/// The statistics of a temporal pair, in two passes over its pixels without copies: the
+/// row and column sums, then the central moments.
 fn pair_stats(a: &[f32], b: &[f32], w: usize, h: usize) -> PairStats {
     let n = a.len() as f64;
-    let avg: Vec<f64> = a.iter().zip(b).map(|(&x, &y)| 0.5 * (f64::from(x) + f64::from(y))).collect();
-    let diff: Vec<f64> =
-        a.iter().zip(b).map(|(&x, &y)| (f64::from(x) - f64::from(y)) / std::f64::consts::SQRT_2).collect();
-    let m = mean(&avg);
-    let v = var(&diff);
+    let pixel = |x: f32, y: f32| {
+        let (x, y) = (f64::from(x), f64::from(y));
+        (0.5 * (x + y), (x - y) / std::f64::consts::SQRT_2)
+    };
+    let rows = || a.chunks(w.max(1)).zip(b.chunks(w.max(1))).take(h);
+    let mut col_avg = vec![0.0; w];
+    let (mut row_avg, mut row_diff) = (Vec::with_capacity(h), Vec::with_capacity(h));
+    for (ra, rb) in rows() {
+        let (mut sa, mut sd) = (0.0, 0.0);
+        for ((c, &x), &y) in col_avg.iter_mut().zip(ra).zip(rb) {
+            let (avg, d) = pixel(x, y);
+            *c += avg;
+            sa += avg;
+            sd += d;
+        }
+        row_avg.push(sa / w as f64);
+        row_diff.push(sd / w as f64);
+    }
+    col_avg.iter_mut().for_each(|c| *c /= h as f64);
+    let (m, md) = (mean(&row_avg), mean(&row_diff));
+    let (mut s2a, mut s2d, mut s4d) = (0.0, 0.0, 0.0);
+    for (&x, &y) in a.iter().zip(b) {
+        let (avg, d) = pixel(x, y);
+        let (ea, ed) = (avg - m, (d - md) * (d - md));
+        s2a += ea * ea;
+        s2d += ed;
+        s4d += ed * ed;
+    }
+    let dof = (n - 1.0).max(1.0);
     // Variance of the frame mean: white, row-correlated or column-correlated patterns; the
     // profiles' variances from successive differences, so smooth shading (a deterministic
     // fall-off, not a sampling error) does not count.
-    let mean_var = (var(&avg) / n)
-        .max(diff_var(&row_means(&avg, w, h)) / h as f64)
-        .max(diff_var(&col_means(&avg, w, h)) / w as f64);
-    let md = mean(&diff);
-    let m4 = diff.iter().map(|d| (d - md).powi(4)).sum::<f64>() / n;
-    PairStats { mean_dn: m, var_dn2: v, mean_var, diff_row_var_dn2: var(&row_means(&diff, w, h)), m4 }
+    let mean_var = (s2a / dof / n).max(diff_var(&row_avg) / h as f64).max(diff_var(&col_avg) / w as f64);
+    PairStats { mean_dn: m, var_dn2: s2d / dof, mean_var, diff_row_var_dn2: var(&row_diff), m4: s4d / n }
 }
 
 /// What [`pair_stats`] measures of a temporal pair.
@@ -402,7 +424,7 @@ pub fn thresholds(acq: &Acquisition) -> Thresholds {
     let (w, h) = (acq.width, acq.height);
     let mut t = Thresholds { dark_dn: f64::INFINITY, bright_dn: f64::INFINITY };
     for b in acq.blocks.iter().filter(|b| b.frames.len() > 2) {
-        let img = stack_mean(&b.frames);
+        let img = b.mean_image();
         let mut r = residual(&img, w, h);
         let sigmas = if b.light == Light::Dark {
             r = remove_waves(&r, w, h, &waves(&img, w, h).1);
@@ -591,14 +613,14 @@ fn masked_profiles(img: &[f64], w: usize, h: usize, mask: &[bool]) -> (Vec<f64>,
 /// and left out of the profiles, so one hot pixel does not shift its whole row and column. The
 /// tails are counted on the residual with the plane waves `waves` removed ([`remove_waves`]).
 fn stack_stats(
-    frames: &[Vec<f32>],
+    img: Vec<f64>,
+    frames: usize,
     exposure_s: f64,
     photons: f64,
     t: f64,
     (w, h): (usize, usize),
     waves: &[(f64, f64)],
 ) -> (StackStats, Vec<f64>) {
-    let img = stack_mean(frames);
     let first = remove_waves(&residual(&img, w, h), w, h, waves);
     let mask: Vec<bool> = first.iter().map(|v| v.abs() > t).collect();
     let (rm, cm, g) = masked_profiles(&img, w, h, &mask);
@@ -607,7 +629,7 @@ fn stack_stats(
     let kept: Vec<f64> = r.iter().zip(&rt).filter(|(_, t2)| t2.abs() <= t).map(|(v, _)| *v).collect();
     let count = |f: &dyn Fn(f64) -> bool| rt.iter().filter(|&&v| f(v)).count() as f64;
     let s = StackStats {
-        frames: frames.len(),
+        frames,
         exposure_s,
         photons,
         mean_dn: mean(&img),
@@ -648,9 +670,38 @@ pub fn compute(acq: &Acquisition, t: &Thresholds) -> Stats {
     let (mut dark_img, mut bright_img) = (None, None);
     let mut peaks: Vec<Peak> = Vec::new();
     let mut mean_vars = Vec::new();
-    for b in &acq.blocks {
-        if b.frames.len() == 2 {
-            let p = pair_stats(&b.frames[0], &b.frames[1], w, h);
+    // The pairs, the first dark stack and the first bright stack, in parallel.
+    let first_stack =
+        |dark: bool| acq.blocks.iter().position(|b| b.frames.len() > 2 && (b.light == Light::Dark) == dark);
+    let (pairs, (dark_result, bright_result)) = rayon::join(
+        || -> Vec<Option<PairStats>> {
+            acq.blocks
+                .par_iter()
+                .map(|b| (b.frames.len() == 2).then(|| pair_stats(&b.frames[0], &b.frames[1], w, h)))
+                .collect()
+        },
+        || {
+            rayon::join(
+                || {
+                    first_stack(true).map(|i| {
+                        let b = &acq.blocks[i];
+                        let img = b.mean_image();
+                        let (p, wv) = waves(&img, w, h);
+                        (stack_stats(img, b.frames.len(), b.exposure_s, 0.0, t.dark_dn, (w, h), &wv), p)
+                    })
+                },
+                || {
+                    first_stack(false).map(|i| {
+                        let b = &acq.blocks[i];
+                        let p = b.light.photons();
+                        stack_stats(b.mean_image(), b.frames.len(), b.exposure_s, p, t.bright_dn, (w, h), &[])
+                    })
+                },
+            )
+        },
+    );
+    for (b, pair) in acq.blocks.iter().zip(pairs) {
+        if let Some(p) = pair {
             let (m, v, mv, rv, m4) = (p.mean_dn, p.var_dn2, p.mean_var, p.diff_row_var_dn2, p.m4);
             match b.light {
                 Light::Bright(p) => {
@@ -689,24 +740,13 @@ pub fn compute(acq: &Acquisition, t: &Thresholds) -> Stats {
                     });
                 }
             }
-        } else if b.frames.len() > 2 {
-            match b.light {
-                Light::Dark if dark_stack.is_none() => {
-                    let img = stack_mean(&b.frames);
-                    let (p, wv) = waves(&img, w, h);
-                    let (s, img) = stack_stats(&b.frames, b.exposure_s, 0.0, t.dark_dn, (w, h), &wv);
-                    dark_stack = Some(s);
-                    dark_img = Some(img);
-                    peaks = p;
-                }
-                Light::Bright(p) if bright_stack.is_none() => {
-                    let (s, img) = stack_stats(&b.frames, b.exposure_s, p, t.bright_dn, (w, h), &[]);
-                    bright_stack = Some(s);
-                    bright_img = Some(img);
-                }
-                _ => {}
-            }
         }
+    }
+    if let Some(((s, img), p)) = dark_result {
+        (dark_stack, dark_img, peaks) = (Some(s), Some(img), p);
+    }
+    if let Some((s, img)) = bright_result {
+        (bright_stack, bright_img) = (Some(s), Some(img));
     }
     for (i, (s, (mv, rv, m4))) in steps.iter().zip(&mean_vars).enumerate() {
         entries.push(Entry {

@@ -133,7 +133,7 @@ pub fn layout(model: &GapModel) -> Acquisition {
     let max = f64::from((1u32 << BITS) - 1);
     let responsivity = model.sensor.system_gain_dn_per_e * model.sensor.quantum_efficiency;
     let top = 0.9 * max / responsivity;
-    let empty = |light, exposure_s, n: usize| Block { light, exposure_s, group: 0, frames: vec![Vec::new(); n] };
+    let empty = |light, exposure_s, n: usize| Block::layout(light, exposure_s, 0, n);
     let mut blocks: Vec<Block> =
         (1..=STEPS).map(|i| empty(Light::Bright(top * i as f64 / STEPS as f64), EXPOSURE_S, 2)).collect();
     for t in [EXPOSURE_S, 4.0 * EXPOSURE_S, 16.0 * EXPOSURE_S] {
