@@ -619,6 +619,23 @@ pub struct FrameSimulator<'a> {
     dark_table: std::sync::OnceLock<Option<RoundingTable>>,
 }
 
+/// What [`FrameSimulator::row_moments`] reads of each pixel that light, exposure and gain do
+/// not change: the sensitivity `QE (1 + prnu)`, the hot-pixel excess, the DSNU and the fixed
+/// offset (black level, column offset, periodic pattern). The same for every block of an
+/// acquisition simulated with one model ([`FrameSimulator::pixel_constants`]), so computed
+/// once instead of per block and row.
+#[derive(Debug, Clone)]
+pub struct PixelConstants {
+    width: usize,
+    height: usize,
+    sens: Vec<f64>,
+    /// Empty when hot pixels are off.
+    hot_e_per_s: Vec<f64>,
+    /// Empty when DSNU is off.
+    dsnu_e: Vec<f64>,
+    offset_dn: Vec<f64>,
+}
+
 /// What [`FrameSimulator::row_moments`] needs of one pixel.
 struct PixelInputs {
     /// Poisson mean, electrons: signal, dark current and hot-pixel excess.
@@ -850,26 +867,38 @@ impl FrameSimulator<'_> {
     /// # Panics
     /// If `photons`, `mean` or `var` is not one row long, or `r` is outside the frame.
     #[inline(always)]
-    pub fn row_moments(&self, r: usize, photons: &[f32], mean: &mut [f64], var: &mut [f64]) -> bool {
+    pub fn row_moments(
+        &self,
+        constants: &PixelConstants,
+        r: usize,
+        photons: &[f32],
+        mean: &mut [f64],
+        var: &mut [f64],
+    ) -> bool {
         let width = self.width;
         assert!(
             photons.len() == width && mean.len() == width && var.len() == width && r < self.height,
             "row {r} of {} px must be in the frame",
             photons.len()
         );
+        assert!(constants.width == width && constants.height == self.height, "constants of another frame size");
         let e = &self.model.effects;
         let k = self.k;
         let dither_dn = if e.quantization.enabled { e.quantization.dither_dn } else { 0.0 };
         let extra_var = self.post_sd * self.post_sd + dither_dn * dither_dn / 12.0;
         let row_var = self.row_sd * self.row_sd;
         let c = self.nonlinearity_c();
-        let pixels = self.row_inputs(r, photons);
+        let span = r * width..(r + 1) * width;
+        let (sens, offset) = (&constants.sens[span.clone()], &constants.offset_dn[span.clone()]);
+        let hot = constants.hot_e_per_s.get(span.clone());
+        let dsnu = constants.dsnu_e.get(span);
         // The darkest pixel's electrons and gain slope, for the rounding bound.
         let (mut lambda_min, mut slope_at_min, mut var_at_min) = (f64::INFINITY, 1.0, 0.0);
         let (mut below_full_well, mut inside) = (true, true);
-        for (i, px) in pixels.iter().enumerate() {
-            let lambda = px.lambda_e;
-            let mean_e = lambda + px.dsnu_e;
+        for i in 0..width {
+            let hot_e = hot.map_or(0.0, |m| m[i] * self.exposure_s);
+            let lambda = sens[i] * f64::from(photons[i]).max(0.0) + self.dark_mean + hot_e;
+            let mean_e = lambda + dsnu.map_or(0.0, |m| m[i]);
             let var_e = lambda + self.pre_sd * self.pre_sd;
             // Eight standard deviations, compared squared (no square root per pixel).
             let headroom = self.full_well - mean_e;
@@ -883,7 +912,7 @@ impl FrameSimulator<'_> {
                 let x4 = mu * mu * mu * mu + 6.0 * mu * mu * v + 4.0 * mu * k3 + k4 + 3.0 * v * v;
                 (a, slope, curvature) = (mu + c * x4, 1.0 + 4.0 * c * mu * mu * mu, 12.0 * c * mu * mu);
             }
-            a += px.offset_dn;
+            a += offset[i];
             let vy = slope * slope * v + 0.5 * curvature * curvature * v * v + extra_var;
             let (low, high) = (a + 0.5, self.max + 0.5 - a);
             let reach2 = 64.0 * (vy + row_var);
@@ -900,7 +929,45 @@ impl FrameSimulator<'_> {
         if inside && self.rounding_is_smooth(lambda_min, slope_at_min, var_at_min, dither_dn) {
             return true;
         }
-        dither_dn == 0.0 && self.exact_row_moments(&pixels, mean, var)
+        dither_dn == 0.0 && self.exact_row_moments(&self.row_inputs(constants, r, photons), mean, var)
+    }
+
+    /// The per-pixel constants of this frame's moments ([`PixelConstants`]).
+    #[must_use]
+    pub fn pixel_constants(&self) -> PixelConstants {
+        let (width, height) = (self.width, self.height);
+        let p = self.pattern;
+        let qe = self.model.quantum_efficiency;
+        let pp = self.model.effects.periodic_pattern;
+        let two_pi = std::f64::consts::TAU;
+        let mut offset_dn = vec![0.0; width * height];
+        offset_dn.par_chunks_mut(width.max(1)).enumerate().for_each(|(r, row)| {
+            let rf = r as f64;
+            let row_waves = [
+                (two_pi * pp.wave_x_freq_y_cycles_per_px * rf).sin_cos(),
+                (two_pi * pp.freq_y_cycles_per_px * rf).sin_cos(),
+            ];
+            for (i, o) in row.iter_mut().enumerate() {
+                *o = self.black
+                    + p.column_dn.get(i).filter(|_| p.column_dn.len() == width).map_or(0.0, |&c| f64::from(c));
+                if pp.enabled {
+                    let [(sx, cx), (sy, cy)] = self.col_waves[i];
+                    if self.separable {
+                        *o += pp.amplitude_dn * (row_waves[1].0 + sx);
+                    } else {
+                        let [(sxr, cxr), (syr, cyr)] = row_waves;
+                        *o += pp.amplitude_dn * ((sx * cxr + cx * sxr) + (sy * cyr + cy * syr));
+                    }
+                }
+            }
+        });
+        let sens = if p.prnu.is_empty() {
+            vec![qe; width * height]
+        } else {
+            p.prnu.iter().map(|&s| qe * (1.0 + f64::from(s))).collect()
+        };
+        let widen = |m: &[f32]| m.iter().map(|&v| f64::from(v)).collect::<Vec<f64>>();
+        PixelConstants { width, height, sens, hot_e_per_s: widen(&p.hot_e_per_s), dsnu_e: widen(&p.dsnu_e), offset_dn }
     }
 
     /// Whether rounding leaves the two moments of a pixel of `lambda_e` mean electrons, gain
@@ -920,41 +987,20 @@ impl FrameSimulator<'_> {
 
     /// Each pixel of row `r`: its Poisson mean, its DSNU and its fixed offset (black level,
     /// column offset, periodic pattern), as [`FrameSimulator::row`] adds them.
-    fn row_inputs(&self, r: usize, photons: &[f32]) -> Vec<PixelInputs> {
-        let width = self.width;
-        let p = self.pattern;
-        let span = r * width..(r + 1) * width;
-        let prnu = p.prnu.get(span.clone());
-        let hot = p.hot_e_per_s.get(span.clone());
-        let dsnu = p.dsnu_e.get(span);
-        let column = (p.column_dn.len() == width).then_some(p.column_dn.as_slice());
-        let pp = self.model.effects.periodic_pattern;
-        let rf = r as f64;
-        let two_pi = std::f64::consts::TAU;
-        let row_waves = [
-            (two_pi * pp.wave_x_freq_y_cycles_per_px * rf).sin_cos(),
-            (two_pi * pp.freq_y_cycles_per_px * rf).sin_cos(),
-        ];
-        (0..width)
+    fn row_inputs(&self, constants: &PixelConstants, r: usize, photons: &[f32]) -> Vec<PixelInputs> {
+        let span = r * self.width..(r + 1) * self.width;
+        let hot = constants.hot_e_per_s.get(span.clone());
+        let dsnu = constants.dsnu_e.get(span.clone());
+        let (sens, offset) = (&constants.sens[span.clone()], &constants.offset_dn[span]);
+        (0..self.width)
             .map(|i| {
-                let sens = prnu.map_or(1.0, |m| 1.0 + f64::from(m[i]));
-                let light_e = self.model.quantum_efficiency * sens * f64::from(photons[i]).max(0.0);
-                let hot_e = hot.map_or(0.0, |m| f64::from(m[i]) * self.exposure_s);
-                let mut offset_dn = self.black + column.map_or(0.0, |m| f64::from(m[i]));
-                if pp.enabled {
-                    let [(sx, cx), (sy, cy)] = self.col_waves[i];
-                    if self.separable {
-                        offset_dn += pp.amplitude_dn * (row_waves[1].0 + sx);
-                    } else {
-                        let [(sxr, cxr), (syr, cyr)] = row_waves;
-                        offset_dn += pp.amplitude_dn * ((sx * cxr + cx * sxr) + (sy * cyr + cy * syr));
-                    }
-                }
+                let light_e = sens[i] * f64::from(photons[i]).max(0.0);
+                let hot_e = hot.map_or(0.0, |m| m[i] * self.exposure_s);
                 PixelInputs {
                     lambda_e: light_e + self.dark_mean + hot_e,
                     dark_only: light_e == 0.0 && hot_e == 0.0,
-                    dsnu_e: dsnu.map_or(0.0, |m| f64::from(m[i])),
-                    offset_dn,
+                    dsnu_e: dsnu.map_or(0.0, |m| m[i]),
+                    offset_dn: offset[i],
                 }
             })
             .collect()
@@ -1760,7 +1806,7 @@ mod tests {
             let ph = vec![*photons; w];
             let sim = model.frame_simulator(&pattern, 0.02, 0.0, 0);
             let (mut mean, mut var) = (vec![0.0; w], vec![0.0; w]);
-            let ok = sim.row_moments(1, &ph, &mut mean, &mut var);
+            let ok = sim.row_moments(&sim.pixel_constants(), 1, &ph, &mut mean, &mut var);
             assert_eq!(ok, *described, "case {ci}: described");
             if !ok {
                 continue;

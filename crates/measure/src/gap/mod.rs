@@ -86,7 +86,7 @@ use serde::{Deserialize, Serialize};
 use crate::calibration::emva::{self, BlockKind, EmvaError};
 use crate::calibration::{self, CalibrationError};
 use scene_gen_camera::sensor::SensorModel;
-use scene_gen_camera::sensor::noise::{FixedPattern, FrameSimulator, ModelError, standard_normal};
+use scene_gen_camera::sensor::noise::{FixedPattern, FrameSimulator, ModelError, PixelConstants, standard_normal};
 use scene_gen_core::rng;
 use scene_gen_core::simd::Dispatch;
 
@@ -379,6 +379,8 @@ pub fn simulate_rows(
             None => vec![p as f32; w * h],
         }
     };
+    // The per-pixel constants of the moments, from the first block drawn by them.
+    let constants = std::sync::OnceLock::new();
     let blocks = layout
         .blocks
         .iter()
@@ -409,11 +411,13 @@ pub fn simulate_rows(
                     Block { light, exposure_s, group, frames, average: None }
                 }
                 Draws::Moments if sims.len() > 2 => {
-                    let average = moment_stack(&sims, &photons, seeds[0], w);
+                    let constants = constants.get_or_init(|| sims[0].pixel_constants());
+                    let average = moment_stack(&sims, constants, &photons, seeds[0], w);
                     Block { average: Some(average), ..Block::layout(light, exposure_s, group, sims.len()) }
                 }
                 Draws::Moments => {
-                    let frames = moment_frames(&sims, &photons, &seeds, w);
+                    let constants = constants.get_or_init(|| sims[0].pixel_constants());
+                    let frames = moment_frames(&sims, constants, &photons, &seeds, w);
                     Block { light, exposure_s, group, frames, average: None }
                 }
             }
@@ -468,7 +472,7 @@ struct BlockMoments {
 }
 
 impl BlockMoments {
-    fn of(sim: &FrameSimulator, photons: &[f32], w: usize) -> BlockMoments {
+    fn of(sim: &FrameSimulator, constants: &PixelConstants, photons: &[f32], w: usize) -> BlockMoments {
         let (mut mean, mut sd) = (vec![0.0; photons.len()], vec![0.0; photons.len()]);
         let described = mean
             .par_chunks_mut(w.max(1))
@@ -476,7 +480,7 @@ impl BlockMoments {
             .zip(photons.par_chunks(w.max(1)))
             .enumerate()
             .map(|(r, ((m, v), ph))| {
-                let ok = sim.row_moments(r, ph, m, v);
+                let ok = sim.row_moments(constants, r, ph, m, v);
                 v.iter_mut().for_each(|x| *x = x.sqrt());
                 ok
             })
@@ -487,8 +491,14 @@ impl BlockMoments {
 
 /// The frames of a block drawn by [`Draws::Moments`]: row `r` of frame `f` from
 /// `rng::substream(seeds[f], "gap/moments", r)` (its row offset, then its pixels).
-fn moment_frames(sims: &[FrameSimulator], photons: &[f32], seeds: &[u64], w: usize) -> Vec<Vec<f32>> {
-    let moments = BlockMoments::of(&sims[0], photons, w);
+fn moment_frames(
+    sims: &[FrameSimulator],
+    constants: &PixelConstants,
+    photons: &[f32],
+    seeds: &[u64],
+    w: usize,
+) -> Vec<Vec<f32>> {
+    let moments = BlockMoments::of(&sims[0], constants, photons, w);
     sims.iter()
         .zip(seeds)
         .map(|(sim, &seed)| {
@@ -514,9 +524,9 @@ fn moment_frames(sims: &[FrameSimulator], photons: &[f32], seeds: &[u64], w: usi
 /// describe from the mean and variance of an average of L frames (the row offset averaged
 /// too), from `rng::substream(seed, "gap/moments-stack", r)`; other rows as the average of
 /// their L frames drawn pixel by pixel.
-fn moment_stack(sims: &[FrameSimulator], photons: &[f32], seed: u64, w: usize) -> Vec<f64> {
+fn moment_stack(sims: &[FrameSimulator], constants: &PixelConstants, photons: &[f32], seed: u64, w: usize) -> Vec<f64> {
     let l = sims.len() as f64;
-    let moments = BlockMoments::of(&sims[0], photons, w);
+    let moments = BlockMoments::of(&sims[0], constants, photons, w);
     let mut out = vec![0f64; photons.len()];
     out.par_chunks_mut(w.max(1)).zip(photons.par_chunks(w.max(1))).enumerate().for_each(|(r, (row, ph))| {
         if moments.described[r] {
