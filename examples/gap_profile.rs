@@ -1,6 +1,7 @@
 //! Timing breakdown of one evaluation of the gap workflow on an EMVA 1288 descriptor: loading,
 //! thresholds, statistics, the FFT periodogram, the wave removal and whole-acquisition
-//! simulations (docs/BENCHMARKS.md, gap section):
+//! simulations, drawn pixel by pixel and from moments, each after an untimed run that fills
+//! the fixed-pattern cache both share (docs/BENCHMARKS.md, gap section):
 //!
 //! ```text
 //! cargo run --release --example gap_profile -- DESCRIPTOR
@@ -39,6 +40,7 @@ fn main() {
     let t0 = Instant::now();
     let _m = stats::compute(&measured, &t);
     println!("compute(measured) {:.3}s", t0.elapsed().as_secs_f64());
+    let _ = simulate_rows(&model, &measured, 1288, None, h, &[]);
     for draws in [Draws::Pixels, Draws::Moments] {
         let (t0, c0) = (Instant::now(), cpu_s());
         let sim = simulate_rows(&model, &measured, 1288, None, h, &gap::block_draws(&measured, draws));
@@ -69,6 +71,7 @@ fn main() {
     e.periodic_pattern.wave_x_freq_y_cycles_per_px = 0.2;
     e.periodic_pattern.wave_y_freq_x_cycles_per_px = 0.1;
     e.periodic_pattern.freq_y_cycles_per_px = 0.05;
+    let _ = simulate_rows(&full, &measured, 1288, None, h, &[]);
     for draws in [Draws::Pixels, Draws::Moments] {
         let (t0, c0) = (Instant::now(), cpu_s());
         let _ = simulate_rows(&full, &measured, 1288, None, h, &gap::block_draws(&measured, draws));

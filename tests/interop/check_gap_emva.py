@@ -94,19 +94,25 @@ def bright_stack_saturated(descriptor: str) -> bool:
     return bool((np.abs(img.astype(np.float64) - np.median(img)) <= 1.0).mean() > 0.95)
 
 
+def write_set(folder: str, bits: int, width: int, height: int, effect: str, seed: int):
+    """One case's data set written to `folder` by the reference simulator: its descriptor (with
+    PNG images) and the simulated camera."""
+    generated = DatasetGenerator(
+        steps=20, L=8, outdir=folder, width=width, height=height, bit_depth=bits, seed=seed,
+        image_format="png" if bits == 8 else "tiff", **hidden_maps(effect, width, height, seed),
+    )
+    descriptor = generated.descriptor_path if bits == 8 else as_png(folder, generated.descriptor_path)
+    return descriptor, generated.cam
+
+
 def run_case(binary: str, bits: int, width: int, height: int, effect: str, seed: int) -> tuple[set, set, float, list]:
     """The effects `gap` names, the effects the simulated camera has, gap's seconds and the
     families it reports unexplained."""
     with tempfile.TemporaryDirectory() as folder:
-        generated = DatasetGenerator(
-            steps=20, L=8, outdir=folder, width=width, height=height, bit_depth=bits, seed=seed,
-            image_format="png" if bits == 8 else "tiff", **hidden_maps(effect, width, height, seed),
-        )
-        cam = generated.cam
+        descriptor, cam = write_set(folder, bits, width, height, effect, seed)
         expected = EXPECTED | (set() if effect == "none" else set(effect.split("+")))
         if cam.K * cam._u_esat + cam.blackoffset < cam.img_max:
             expected.add("saturation")
-        descriptor = generated.descriptor_path if bits == 8 else as_png(folder, generated.descriptor_path)
         if bright_stack_saturated(descriptor):
             # The generator puts the spatial stack at half the ADC range, above a full well
             # that clips lower: every pixel sits on the plateau, and a gain pattern leaves no
@@ -160,4 +166,12 @@ def main(binary: str) -> int:
 
 
 if __name__ == "__main__":
+    if len(sys.argv) == 8 and sys.argv[1] == "--write-set":
+        # One case's set kept for timing by hand: --write-set DIR BITS WIDTH HEIGHT EFFECT SEED
+        # prints its descriptor (docs/BENCHMARKS.md).
+        logging.disable(logging.WARNING)
+        out, bits, width, height, effect, seed = sys.argv[2:]
+        os.makedirs(out, exist_ok=True)
+        print(write_set(out, int(bits), int(width), int(height), effect, int(seed))[0])
+        sys.exit(0)
     sys.exit(main(sys.argv[1]))

@@ -722,13 +722,7 @@ impl FrameSimulator<'_> {
         let mut dither_rng = stream("sensor/dither");
         let row_offset =
             if self.row_sd > 0.0 { self.row_sd * standard_normal(&mut stream("sensor/row-offset")) } else { 0.0 };
-        let two_pi = std::f64::consts::TAU;
-        let rf = r as f64;
-        let row_waves = [
-            (two_pi * pp.wave_x_freq_y_cycles_per_px * rf).sin_cos(),
-            (two_pi * pp.freq_y_cycles_per_px * rf).sin_cos(),
-        ];
-        let periodic_y = if pp.enabled { pp.amplitude_dn * row_waves[1].0 } else { 0.0 };
+        let row_waves = self.row_waves(r);
         // The row in blocks of `ROW_BLOCK` pixels, three passes each: the arithmetic that needs
         // no random draw before (the mean electrons and PTRS's constants) and after (DN, the
         // effects, rounding) runs in loops without draws, which the compiler vectorises and the
@@ -806,13 +800,7 @@ impl FrameSimulator<'_> {
                 y += row_offset + black;
                 y += column.map_or(0.0, |m| f64::from(m[i]));
                 if pp.enabled {
-                    let [(sx, cx), (sy, cy)] = self.col_waves[c0 + i];
-                    if self.separable {
-                        y += periodic_y + pp.amplitude_dn * sx;
-                    } else {
-                        let [(sxr, cxr), (syr, cyr)] = row_waves;
-                        y += pp.amplitude_dn * ((sx * cxr + cx * sxr) + (sy * cyr + cy * syr));
-                    }
+                    y += self.periodic_dn(&row_waves, c0 + i);
                 }
                 if quantize {
                     if dither_dn > 0.0 {
@@ -847,6 +835,28 @@ impl FrameSimulator<'_> {
     #[must_use]
     pub fn row_offset_sd_dn(&self) -> f64 {
         self.row_sd
+    }
+
+    /// `sin_cos` of the periodic pattern's two phases along y at row `r` ([`Self::periodic_dn`]).
+    fn row_waves(&self, r: usize) -> [(f64, f64); 2] {
+        let pp = self.model.effects.periodic_pattern;
+        let (two_pi, rf) = (std::f64::consts::TAU, r as f64);
+        [(two_pi * pp.wave_x_freq_y_cycles_per_px * rf).sin_cos(), (two_pi * pp.freq_y_cycles_per_px * rf).sin_cos()]
+    }
+
+    /// The periodic pattern at column `c` of the row whose [`Self::row_waves`] are `row_waves`,
+    /// DN (`sin(a + b) = sin a cos b + cos a sin b` from the column and row tables); call it
+    /// only when the pattern is on.
+    #[inline(always)]
+    fn periodic_dn(&self, row_waves: &[(f64, f64); 2], c: usize) -> f64 {
+        let amplitude = self.model.effects.periodic_pattern.amplitude_dn;
+        let [(sx, cx), (sy, cy)] = self.col_waves[c];
+        if self.separable {
+            amplitude * row_waves[1].0 + amplitude * sx
+        } else {
+            let [(sxr, cxr), (syr, cyr)] = *row_waves;
+            amplitude * ((sx * cxr + cx * sxr) + (sy * cyr + cy * syr))
+        }
     }
 
     /// The mean and variance of every pixel of row `r` as this frame's output gives them (after
@@ -888,17 +898,13 @@ impl FrameSimulator<'_> {
         let extra_var = self.post_sd * self.post_sd + dither_dn * dither_dn / 12.0;
         let row_var = self.row_sd * self.row_sd;
         let c = self.nonlinearity_c();
-        let span = r * width..(r + 1) * width;
-        let (sens, offset) = (&constants.sens[span.clone()], &constants.offset_dn[span.clone()]);
-        let hot = constants.hot_e_per_s.get(span.clone());
-        let dsnu = constants.dsnu_e.get(span);
+        let pixels = self.row_inputs(constants, r, photons);
         // The darkest pixel's electrons and gain slope, for the rounding bound.
         let (mut lambda_min, mut slope_at_min, mut var_at_min) = (f64::INFINITY, 1.0, 0.0);
         let (mut below_full_well, mut inside) = (true, true);
-        for i in 0..width {
-            let hot_e = hot.map_or(0.0, |m| m[i] * self.exposure_s);
-            let lambda = sens[i] * f64::from(photons[i]).max(0.0) + self.dark_mean + hot_e;
-            let mean_e = lambda + dsnu.map_or(0.0, |m| m[i]);
+        for (i, px) in pixels.iter().enumerate() {
+            let lambda = px.lambda_e;
+            let mean_e = lambda + px.dsnu_e;
             let var_e = lambda + self.pre_sd * self.pre_sd;
             // Eight standard deviations, compared squared (no square root per pixel).
             let headroom = self.full_well - mean_e;
@@ -912,7 +918,7 @@ impl FrameSimulator<'_> {
                 let x4 = mu * mu * mu * mu + 6.0 * mu * mu * v + 4.0 * mu * k3 + k4 + 3.0 * v * v;
                 (a, slope, curvature) = (mu + c * x4, 1.0 + 4.0 * c * mu * mu * mu, 12.0 * c * mu * mu);
             }
-            a += offset[i];
+            a += px.offset_dn;
             let vy = slope * slope * v + 0.5 * curvature * curvature * v * v + extra_var;
             let (low, high) = (a + 0.5, self.max + 0.5 - a);
             let reach2 = 64.0 * (vy + row_var);
@@ -929,7 +935,7 @@ impl FrameSimulator<'_> {
         if inside && self.rounding_is_smooth(lambda_min, slope_at_min, var_at_min, dither_dn) {
             return true;
         }
-        dither_dn == 0.0 && self.exact_row_moments(&self.row_inputs(constants, r, photons), mean, var)
+        dither_dn == 0.0 && self.exact_row_moments(&pixels, mean, var)
     }
 
     /// The per-pixel constants of this frame's moments ([`PixelConstants`]).
@@ -938,26 +944,15 @@ impl FrameSimulator<'_> {
         let (width, height) = (self.width, self.height);
         let p = self.pattern;
         let qe = self.model.quantum_efficiency;
-        let pp = self.model.effects.periodic_pattern;
-        let two_pi = std::f64::consts::TAU;
+        let periodic = self.model.effects.periodic_pattern.enabled;
+        let column = (p.column_dn.len() == width).then_some(p.column_dn.as_slice());
         let mut offset_dn = vec![0.0; width * height];
         offset_dn.par_chunks_mut(width.max(1)).enumerate().for_each(|(r, row)| {
-            let rf = r as f64;
-            let row_waves = [
-                (two_pi * pp.wave_x_freq_y_cycles_per_px * rf).sin_cos(),
-                (two_pi * pp.freq_y_cycles_per_px * rf).sin_cos(),
-            ];
+            let row_waves = self.row_waves(r);
             for (i, o) in row.iter_mut().enumerate() {
-                *o = self.black
-                    + p.column_dn.get(i).filter(|_| p.column_dn.len() == width).map_or(0.0, |&c| f64::from(c));
-                if pp.enabled {
-                    let [(sx, cx), (sy, cy)] = self.col_waves[i];
-                    if self.separable {
-                        *o += pp.amplitude_dn * (row_waves[1].0 + sx);
-                    } else {
-                        let [(sxr, cxr), (syr, cyr)] = row_waves;
-                        *o += pp.amplitude_dn * ((sx * cxr + cx * sxr) + (sy * cyr + cy * syr));
-                    }
+                *o = self.black + column.map_or(0.0, |m| f64::from(m[i]));
+                if periodic {
+                    *o += self.periodic_dn(&row_waves, i);
                 }
             }
         });
@@ -1052,10 +1047,7 @@ impl FrameSimulator<'_> {
                 offset_dn: px.offset_dn,
                 nonlinearity_c: c,
             };
-            let Some((m, v, _)) = rounded_moments(&pixel, smooth_sd, 0.0, self.max, EXACT_TERMS_MAX) else {
-                return false;
-            };
-            (mean[i], var[i]) = (m, v);
+            (mean[i], var[i]) = rounded_moments(&pixel, smooth_sd, 0.0, self.max);
         }
         true
     }
@@ -1185,12 +1177,11 @@ fn poisson_range(lambda: f64) -> (u64, u64) {
 
 /// Mean and variance of `clamp(round(y), lo, hi)` for the pixel `px` with Gaussian noise of
 /// standard deviation `smooth_sd` DN (read noise through the gain, post-gain noise), summed
-/// exactly over the Poisson counts and the output values within eight deviations of each; the
-/// number of terms it took. `None` when it would take more than `budget` terms.
-fn rounded_moments(px: &RoundedPixel, smooth_sd: f64, lo: f64, hi: f64, budget: usize) -> Option<(f64, f64, usize)> {
+/// exactly over the Poisson counts and the output values within eight deviations of each
+/// ([`SumPlan`], whose `terms` bound the cost).
+fn rounded_moments(px: &RoundedPixel, smooth_sd: f64, lo: f64, hi: f64) -> (f64, f64) {
     let plan = SumPlan::new(px.lambda_e, px.k, smooth_sd);
     let (n_lo, n_hi, smooth_sd) = (plan.n_lo, plan.n_hi, plan.sd);
-    let mut terms = 0usize;
     let level = |n: f64| {
         let x = px.k * (n + px.dsnu_e);
         x + px.nonlinearity_c * x * x * x * x + px.offset_dn
@@ -1211,10 +1202,6 @@ fn rounded_moments(px: &RoundedPixel, smooth_sd: f64, lo: f64, hi: f64, budget: 
             let m_lo = (mu - 8.0 * smooth_sd).floor().clamp(lo, hi);
             let m_hi = (mu + 8.0 * smooth_sd).ceil().clamp(lo, hi);
             // The lowest value takes all the mass below it, the highest all above it.
-            terms += (m_hi - m_lo) as usize + 1;
-            if terms > budget {
-                return None;
-            }
             let mut below = 0.0;
             let mut m = m_lo;
             while m <= m_hi {
@@ -1226,17 +1213,13 @@ fn rounded_moments(px: &RoundedPixel, smooth_sd: f64, lo: f64, hi: f64, budget: 
                 m += 1.0;
             }
         } else {
-            terms += 1;
-            if terms > budget {
-                return None;
-            }
             let d = round_exact(mu).clamp(lo, hi) - centre;
             s1 += p * d;
             s2 += p * d * d;
         }
         p *= px.lambda_e / (n + 1) as f64;
     }
-    Some((centre + s1, s2 - s1 * s1, terms))
+    (centre + s1, s2 - s1 * s1)
 }
 
 /// Nodes of a [`RoundingTable`] over one DN.
@@ -1265,10 +1248,10 @@ impl RoundingTable {
             .map(|j| {
                 let f = j as f64 / ROUNDING_TABLE_NODES as f64;
                 let px = RoundedPixel { lambda_e, k, dsnu_e: 0.0, offset_dn: f, nonlinearity_c: 0.0 };
-                rounded_moments(&px, smooth_sd, f64::NEG_INFINITY, f64::INFINITY, usize::MAX)
-                    .map(|(m, v, _)| (m - f, v))
+                let (m, v) = rounded_moments(&px, smooth_sd, f64::NEG_INFINITY, f64::INFINITY);
+                (m - f, v)
             })
-            .collect::<Option<Vec<_>>>()?;
+            .collect();
         Some(RoundingTable { nodes })
     }
 
@@ -1785,9 +1768,8 @@ mod tests {
     #[test]
     fn row_moments_match_the_pixels_they_describe() {
         // Each case: the row's predicted mean and variance per pixel against 4000 frames of the
-        // same row drawn pixel by pixel. Over the row, the mean standardised difference of the
-        // means and the mean relative difference of the variances must be within sampling
-        // error, in each regime the moments cover: smooth noise (Gaussian moments), dark
+        // same row drawn pixel by pixel, pooled over the row, within sampling error, in each
+        // regime the moments cover: smooth noise (Gaussian moments), dark
         // pixels finely rounded (the table), dark pixels clipped at 0 DN (summed one by one);
         // not described: clipped dark pixels whose dark current puts too many counts in reach,
         // and a row against the ADC's top.

@@ -8,7 +8,7 @@
 
 use super::misfit;
 use super::stats::{self, Gap, Stats, Thresholds};
-use super::{Acquisition, Draws, GapModel, GapOptions, GapResult, Light, Step, Trial, simulate_rows};
+use super::{Acquisition, Block, Draws, GapModel, GapOptions, GapResult, Light, Step, Trial, simulate_rows};
 use crate::search::{self, Effect, Problem};
 use scene_gen_camera::sensor::SensorModel;
 
@@ -1141,7 +1141,7 @@ pub fn search(
     .then(|| Screen::new(layout, &t));
     let draws = super::block_draws(layout, options.draws);
     let mut layout = layout.clone();
-    layout.blocks.iter_mut().for_each(|b| b.frames = vec![Vec::new(); b.frames.len()]);
+    layout.blocks.iter_mut().for_each(|b| *b = Block::layout(b.light, b.exposure_s, b.group, b.frames.len()));
     let mut ev = Evaluator {
         layout,
         reduced,

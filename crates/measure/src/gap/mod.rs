@@ -86,7 +86,9 @@ use serde::{Deserialize, Serialize};
 use crate::calibration::emva::{self, BlockKind, EmvaError};
 use crate::calibration::{self, CalibrationError};
 use scene_gen_camera::sensor::SensorModel;
-use scene_gen_camera::sensor::noise::{FixedPattern, FrameSimulator, ModelError, PixelConstants, standard_normal};
+use scene_gen_camera::sensor::noise::{
+    Dsnu, FixedPattern, FrameSimulator, HotPixels, ModelError, PixelConstants, Prnu, RowColumnNoise, standard_normal,
+};
 use scene_gen_core::rng;
 use scene_gen_core::simd::Dispatch;
 
@@ -350,9 +352,10 @@ pub fn block_draws(measured: &Acquisition, draws: Draws) -> Vec<Draws> {
 }
 
 /// [`simulate_acquisition`] cut to the first `rows` rows of the sensor, block `i` drawn as
-/// `draws[i]` says ([`Draws::Pixels`] past its end): every fixed-pattern map and every frame's temporal noise is drawn row by row from its own
-/// substream, whether a row is drawn from its moments depends on that row alone, and the
-/// fall-off map is the full sensor's, so these rows are bit for bit the full simulation's.
+/// `draws[i]` says ([`Draws::Pixels`] past its end): every fixed-pattern map and every frame's
+/// temporal noise is drawn row by row from its own substream, whether a row is drawn from its
+/// moments depends on that row alone, and the fall-off map is the full sensor's, so these rows
+/// are bit for bit the full simulation's.
 #[must_use]
 pub fn simulate_rows(
     model: &GapModel,
@@ -393,33 +396,25 @@ pub fn simulate_rows(
             let photons = photon_map(light.photons());
             let gain_db = layout.gains_db.get(group).copied().unwrap_or(0.0);
             let seeds: Vec<u64> = (0..b.frames.len()).map(|fi| frame_seed(seed, bi, fi)).collect();
+            if seeds.is_empty() || draws.get(bi).copied().unwrap_or_default() == Draws::Pixels {
+                let frames = seeds
+                    .par_iter()
+                    .map(|&s| {
+                        let dn = sensor.simulate_with(&pattern, &photons, exposure_s, gain_db, s);
+                        dn.into_iter().map(f32::from).collect()
+                    })
+                    .collect();
+                return Block { light, exposure_s, group, frames, average: None };
+            }
             let sims: Vec<FrameSimulator> =
                 seeds.iter().map(|&s| sensor.frame_simulator(&pattern, exposure_s, gain_db, s)).collect();
-            match draws.get(bi).copied().unwrap_or_default() {
-                Draws::Pixels => {
-                    let frames = sims
-                        .par_iter()
-                        .map(|sim| {
-                            let mut out = vec![0f32; w * h];
-                            out.par_chunks_mut(w.max(1))
-                                .zip(photons.par_chunks(w.max(1)))
-                                .enumerate()
-                                .for_each(|(r, (row, ph))| pixel_row(sim, r, ph, row));
-                            out
-                        })
-                        .collect();
-                    Block { light, exposure_s, group, frames, average: None }
-                }
-                Draws::Moments if sims.len() > 2 => {
-                    let constants = constants.get_or_init(|| sims[0].pixel_constants());
-                    let average = moment_stack(&sims, constants, &photons, seeds[0], w);
-                    Block { average: Some(average), ..Block::layout(light, exposure_s, group, sims.len()) }
-                }
-                Draws::Moments => {
-                    let constants = constants.get_or_init(|| sims[0].pixel_constants());
-                    let frames = moment_frames(&sims, constants, &photons, &seeds, w);
-                    Block { light, exposure_s, group, frames, average: None }
-                }
+            let constants = constants.get_or_init(|| sims[0].pixel_constants());
+            if sims.len() > 2 {
+                let average = moment_stack(&sims, constants, &photons, seeds[0], w);
+                Block { average: Some(average), ..Block::layout(light, exposure_s, group, sims.len()) }
+            } else {
+                let frames = moment_frames(&sims, constants, &photons, &seeds, w);
+                Block { light, exposure_s, group, frames, average: None }
             }
         })
         .collect();
@@ -431,22 +426,12 @@ pub fn simulate_rows(
 /// as they were), and drawing a 640x480 sensor's maps costs about a tenth of a simulation. A
 /// pattern is a function of its key alone, so the cache never changes a value.
 fn fixed_pattern(sensor: &SensorModel, w: usize, h: usize) -> Arc<FixedPattern> {
-    type Key = (u64, usize, usize, [u64; 5]);
+    // The effects `SensorModel::fixed_pattern` draws maps for (the row noise rides along with
+    // the column noise: a few spurious misses, never a wrong hit).
+    type Key = (u64, usize, usize, Dsnu, Prnu, HotPixels, RowColumnNoise);
     static CACHE: Mutex<Vec<(Key, Arc<FixedPattern>)>> = Mutex::new(Vec::new());
     let e = &sensor.effects;
-    let on = |enabled: bool, v: f64| if enabled { v.to_bits() } else { u64::MAX };
-    let key: Key = (
-        sensor.pattern_seed,
-        w,
-        h,
-        [
-            on(e.dsnu.enabled, e.dsnu.std_e),
-            on(e.prnu.enabled, e.prnu.std_fraction),
-            on(e.hot_pixels.enabled, e.hot_pixels.fraction),
-            on(e.hot_pixels.enabled, e.hot_pixels.max_excess_e_per_s),
-            on(e.row_column_noise.enabled, e.row_column_noise.column_std_dn),
-        ],
-    );
+    let key: Key = (sensor.pattern_seed, w, h, e.dsnu, e.prnu, e.hot_pixels, e.row_column_noise);
     let lock = || CACHE.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
     if let Some((_, p)) = lock().iter().find(|(k, _)| *k == key) {
         return Arc::clone(p);

@@ -310,10 +310,9 @@ fn pair_stats(a: &[f32], b: &[f32], w: usize, h: usize) -> PairStats {
         let (x, y) = (f64::from(x), f64::from(y));
         (0.5 * (x + y), (x - y) / std::f64::consts::SQRT_2)
     };
-    let rows = || a.chunks(w.max(1)).zip(b.chunks(w.max(1))).take(h);
     let mut col_avg = vec![0.0; w];
     let (mut row_avg, mut row_diff) = (Vec::with_capacity(h), Vec::with_capacity(h));
-    for (ra, rb) in rows() {
+    for (ra, rb) in a.chunks(w.max(1)).zip(b.chunks(w.max(1))).take(h) {
         let (mut sa, mut sd) = (0.0, 0.0);
         for ((c, &x), &y) in col_avg.iter_mut().zip(ra).zip(rb) {
             let (avg, d) = pixel(x, y);
@@ -665,10 +664,6 @@ pub fn compute(acq: &Acquisition, t: &Thresholds) -> Stats {
     let mut entries = Vec::new();
     let mut steps = Vec::new();
     let mut darks = Vec::new();
-    let mut dark_stack = None;
-    let mut bright_stack = None;
-    let (mut dark_img, mut bright_img) = (None, None);
-    let mut peaks: Vec<Peak> = Vec::new();
     let mut mean_vars = Vec::new();
     // The pairs, the first dark stack and the first bright stack, in parallel.
     let first_stack =
@@ -742,12 +737,11 @@ pub fn compute(acq: &Acquisition, t: &Thresholds) -> Stats {
             }
         }
     }
-    if let Some(((s, img), p)) = dark_result {
-        (dark_stack, dark_img, peaks) = (Some(s), Some(img), p);
-    }
-    if let Some((s, img)) = bright_result {
-        (bright_stack, bright_img) = (Some(s), Some(img));
-    }
+    let (dark_stack, dark_img, peaks) = match dark_result {
+        Some(((s, img), p)) => (Some(s), Some(img), p),
+        None => (None, None, Vec::new()),
+    };
+    let (bright_stack, bright_img) = bright_result.map_or((None, None), |(s, img)| (Some(s), Some(img)));
     for (i, (s, (mv, rv, m4))) in steps.iter().zip(&mean_vars).enumerate() {
         entries.push(Entry {
             family: "linearity",
