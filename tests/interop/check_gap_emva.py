@@ -166,7 +166,10 @@ def main(binary: str) -> int:
 
 
 if __name__ == "__main__":
-    if len(sys.argv) == 8 and sys.argv[1] == "--write-set":
+    if len(sys.argv) > 1 and sys.argv[1] == "--write-set":
+        if len(sys.argv) != 8:
+            print("usage: check_gap_emva.py --write-set DIR BITS WIDTH HEIGHT EFFECT SEED", file=sys.stderr)
+            sys.exit(2)
         # One case's set kept for timing by hand: --write-set DIR BITS WIDTH HEIGHT EFFECT SEED
         # prints its descriptor (docs/BENCHMARKS.md).
         logging.disable(logging.WARNING)
