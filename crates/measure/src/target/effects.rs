@@ -113,8 +113,13 @@ pub fn gaussian_blur(image: &[f32], width: usize, height: usize, sigma: f64) -> 
     out
 }
 
-/// A normalised kernel `(size, weights)` for a line of `length` pixels at `angle_deg`: points
-/// every 1/16 px along the segment, each splatted bilinearly.
+/// A normalised kernel `(size, weights)` for a line of `length` pixels at `angle_deg`: each
+/// weight is the share of the segment's length inside that pixel's cell (points every 1/16 px
+/// along it, each given to the pixel it falls in).
+///
+/// The photon image is already integrated over each pixel, so the kernel must not add a blur
+/// of its own: a bilinear splat would widen the line by a tent of one pixel. A horizontal line
+/// of whole length `L` is then the `L`-tap box filter.
 #[must_use]
 pub fn line_kernel(length: f64, angle_deg: f64) -> (usize, Vec<f64>) {
     let half = (length / 2.0).ceil() as usize + 1;
@@ -124,16 +129,10 @@ pub fn line_kernel(length: f64, angle_deg: f64) -> (usize, Vec<f64>) {
     let n = ((length * 16.0).ceil() as usize).max(1);
     for i in 0..n {
         let t = if n == 1 { 0.0 } else { (i as f64 + 0.5) / n as f64 - 0.5 } * length;
-        let (x, y) = (half as f64 + t * dx, half as f64 + t * dy);
-        let (x0, y0) = (x.floor(), y.floor());
-        let (fx, fy) = (x - x0, y - y0);
-        for (ox, wx) in [(0usize, 1.0 - fx), (1, fx)] {
-            for (oy, wy) in [(0usize, 1.0 - fy), (1, fy)] {
-                let (xi, yi) = (x0 as usize + ox, y0 as usize + oy);
-                if xi < size && yi < size {
-                    k[yi * size + xi] += wx * wy;
-                }
-            }
+        // Pixel `half` spans [half - 1/2, half + 1/2) about the kernel's centre.
+        let (x, y) = ((half as f64 + t * dx + 0.5).floor(), (half as f64 + t * dy + 0.5).floor());
+        if (0.0..size as f64).contains(&x) && (0.0..size as f64).contains(&y) {
+            k[y as usize * size + x as usize] += 1.0;
         }
     }
     let s: f64 = k.iter().sum();
@@ -186,8 +185,9 @@ mod tests {
         let vy: f64 = m.iter().enumerate().map(|(i, v)| f64::from(*v) * ((i / w) as f64 - 15.0).powi(2)).sum();
         let vx: f64 = m.iter().enumerate().map(|(i, v)| f64::from(*v) * ((i % w) as f64 - 15.0).powi(2)).sum();
         assert!(vy < 1e-9, "{vy}");
-        // A box of length 9: variance 81 / 12 = 6.75 (plus the bilinear splat's share).
-        assert!((vx - 6.75).abs() < 0.3, "{vx}");
+        // The 9-tap box: weights 1/9 at -4..=4, variance (81 - 1) / 12.
+        assert!((vx - 80.0 / 12.0).abs() < 1e-4, "{vx}");
+        assert!((m[15 * w + 19] - 1.0 / 9.0).abs() < 1e-6 && m[15 * w + 20] == 0.0);
     }
 
     #[test]
