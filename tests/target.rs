@@ -229,8 +229,12 @@ fn effect_outside_the_library_is_unexplained() {
     let gamma: Vec<f64> = clean.iter().map(|&v| (max * (v.max(0.0) / max).powf(0.8)).round()).collect();
     let run = |image: &[f64]| target::run_image(image, &r, &sim, &LoopOptions::default());
     let res = run(&gamma);
-    eprintln!("gamma: named {:?}, unexplained {:?}", res.named(), res.unexplained());
+    eprintln!("gamma: named {:?}, tentative {:?}, unexplained {:?}", res.named(), res.tentative(), res.unexplained());
     assert!(res.unexplained().contains(&"patch_mean"), "{:#?}", res.misfit);
+    // Whatever the search added to lower the misfit rests on the curve left unexplained, so it
+    // is tentative, not named.
+    assert!(res.named().is_empty(), "named {:?}", res.named());
+    assert_eq!(res.json()["tentative"].as_array().map(Vec::len), Some(res.tentative().len()));
     let u = &res.misfit.as_ref().unwrap().unexplained[0];
     assert!(!u.statistics.is_empty() && u.r#where.contains("patch"), "{u:#?}");
     assert!(res.markdown("gamma").contains("## Unexplained"));

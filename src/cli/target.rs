@@ -210,11 +210,12 @@ fn run_gap(args: &TargetGapArgs) -> Result<(), CliError> {
         let unexplained = result.unexplained();
         let list = |v: Vec<String>| if v.is_empty() { "none".to_string() } else { v.join(", ") };
         emit(&format!(
-            "gap {:.3} -> {:.3} ({:.1} % smaller); named: {}; unexplained: {}\nreport: {}\n",
+            "gap {:.3} -> {:.3} ({:.1} % smaller); named: {}; tentative: {}; unexplained: {}\nreport: {}\n",
             result.gap_initial.gap,
             result.gap_final.gap,
             result.shrink_percent(),
             list(named),
+            list(result.tentative()),
             list(unexplained.into_iter().map(String::from).collect()),
             args.out.join("report.md").display()
         ));

@@ -379,6 +379,26 @@ impl SensorModel {
         self.system_gain_dn_per_e * gain_factor(gain_db)
     }
 
+    /// Mean dark-current electrons collected in `exposure_s`.
+    #[must_use]
+    pub fn dark_e(&self, exposure_s: f64) -> f64 {
+        self.dark_rate() * exposure_s
+    }
+
+    /// Temporal read noise at `gain_db` (before and after the gain together), DN.
+    #[must_use]
+    pub fn read_noise_dn(&self, gain_db: f64) -> f64 {
+        let k = self.k_dn_per_e(gain_db);
+        let (pre, post) = self.read_variances();
+        (k * k * pre + post).sqrt()
+    }
+
+    /// Charge a pixel holds before it clips, electrons; `None` when saturation is off.
+    #[must_use]
+    pub fn full_well_e(&self) -> Option<f64> {
+        self.effects.saturation.enabled.then_some(self.effects.saturation.full_well_e)
+    }
+
     fn black_dn(&self) -> f64 {
         let b = self.effects.black_level;
         if b.enabled { b.offset_dn } else { 0.0 }

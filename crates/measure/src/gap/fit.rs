@@ -1212,32 +1212,11 @@ pub fn search(
     }
 }
 
-/// The unexplained families whose misfit an accepted effect's evidence depends on: its
-/// chi-square drop counted without the statistics where unexplained misfit lives
-/// ([`misfit::Unexplained::entries`]) no longer pays its penalty. Such an effect lowered the
-/// misfit, but what it absorbed may be an effect outside the library, so it is tentative. Empty:
-/// its evidence stands on statistics the final model explains.
+/// [`misfit::Evidence::entangled`] for an effect the search accepted.
 fn entangled(a: &search::Accepted<GapModel, GapSim>, m: &misfit::MisfitCheck, ln_n: f64) -> Vec<&'static str> {
-    if m.unexplained.is_empty() {
-        return Vec::new();
-    }
-    let flagged: Vec<usize> = m.unexplained.iter().flat_map(|u| u.entries.iter().copied()).collect();
-    let (before, after) = (&a.before.1.residuals, &a.accepted.1.residuals);
-    let drop: f64 = before
-        .iter()
-        .zip(after)
-        .enumerate()
-        .filter(|(i, _)| !flagged.contains(i))
-        .map(|(_, (b, c))| b * b - c * c)
-        .sum();
     let penalty = effect(a.effect).map_or(0.0, |e| e.penalty_factor() * e.param_count() as f64 * ln_n);
-    if drop > penalty {
-        return Vec::new();
-    }
-    let improved = |family: &str| {
-        a.before.1.families.iter().zip(&a.accepted.1.families).any(|(x, y)| x.family == family && y.chi2 < x.chi2 - 1.0)
-    };
-    m.unexplained.iter().map(|u| u.family).filter(|f| improved(f)).collect()
+    let before = misfit::Comparison::from(&a.before.1);
+    misfit::Evidence { before, accepted: misfit::Comparison::from(&a.accepted.1), penalty }.entangled(m)
 }
 
 /// The report's record of an accepted effect: its parameters after polishing, the gap before

@@ -47,8 +47,10 @@ pub const FAMILY_FALSE_ALARM: f64 = 0.01;
 /// A statistic is listed as a place of the misfit beyond this many of its null spreads.
 pub const LOCATE_SIGMAS: f64 = 3.0;
 
-/// Families whose statistics sample one response curve (against photons or exposure).
-pub const CURVE_FAMILIES: [&str; 3] = ["linearity", "photon_transfer", "dark"];
+/// Families whose statistics sample one response curve: against photons or exposure (the
+/// sensor workflow's), against reflectance or signal (the test chart's patch means and
+/// variances) and against the field radius (the chart's radial profile).
+pub const CURVE_FAMILIES: [&str; 6] = ["linearity", "photon_transfer", "dark", "patch_mean", "patch_var", "radial"];
 
 /// Most statistics listed per unexplained family (the largest first).
 const MAX_LISTED: usize = 8;
@@ -191,6 +193,43 @@ impl From<&Gap> for Comparison {
             families: g.families.iter().map(|f| (f.family, f.chi2, f.dof)).collect(),
             residuals: g.residuals.clone(),
         }
+    }
+}
+
+/// What an accepted effect's place in the model rests on: the comparison before it was added,
+/// the comparison of the search's proposal (before polishing), and the penalty its chi-square
+/// drop had to beat.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Evidence {
+    pub before: Comparison,
+    pub accepted: Comparison,
+    pub penalty: f64,
+}
+
+impl Evidence {
+    /// The unexplained families this evidence depends on: the chi-square drop, counted without
+    /// the statistics where unexplained misfit lives ([`Unexplained::entries`]), no longer pays
+    /// the penalty. Such an effect lowered the misfit, but what it absorbed may be an effect
+    /// outside the library, so it is tentative. Empty: the evidence stands on statistics the
+    /// final model explains.
+    #[must_use]
+    pub fn entangled(&self, check: &MisfitCheck) -> Vec<&'static str> {
+        if check.unexplained.is_empty() {
+            return Vec::new();
+        }
+        let flagged: Vec<usize> = check.unexplained.iter().flat_map(|u| u.entries.iter().copied()).collect();
+        let drop: f64 = (self.before.residuals.iter().zip(&self.accepted.residuals).enumerate())
+            .filter(|(i, _)| !flagged.contains(i))
+            .map(|(_, (b, c))| b * b - c * c)
+            .sum();
+        if drop > self.penalty {
+            return Vec::new();
+        }
+        let improved = |family: &str| {
+            (self.before.families.iter().zip(&self.accepted.families))
+                .any(|(x, y)| x.0 == family && y.0 == family && y.1 < x.1 - 1.0)
+        };
+        check.unexplained.iter().map(|u| u.family).filter(|f| improved(f)).collect()
     }
 }
 

@@ -54,9 +54,6 @@ pub const EDGE_SLANT_DEG: f64 = 5.0;
 /// A white patch on axis is exposed to this fraction of the ADC range (auto exposure).
 pub const WHITE_FRACTION: f64 = 0.7;
 
-/// Supersampling per pixel side when rendering the reflectance.
-const SUPERSAMPLE: usize = 4;
-
 /// Pixel box, half-open: `x0 <= x < x1`, `y0 <= y < y1`.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct PixelBox {
@@ -119,6 +116,34 @@ impl Edge {
     pub fn distance(&self, x: f64, y: f64) -> f64 {
         (x - self.point[0]) * self.normal[0] + (y - self.point[1]) * self.normal[1]
     }
+
+    /// Share of the unit pixel square centred on `(x, y)` that lies on the bright side, exact.
+    ///
+    /// Over the square, the signed distance is `d + nx u + ny v` with `u, v` uniform on
+    /// `[-1/2, 1/2]`, so the share is `P(|nx| U + |ny| V > -d)`: the distribution function of a
+    /// sum of two uniform variables (a trapezoid density), evaluated at `d`.
+    #[must_use]
+    pub fn bright_share(&self, x: f64, y: f64) -> f64 {
+        let d = self.distance(x, y);
+        let (a, b) = {
+            let (p, q) = (self.normal[0].abs(), self.normal[1].abs());
+            (p.max(q), p.min(q))
+        };
+        let (outer, inner) = ((a + b) / 2.0, (a - b) / 2.0);
+        if d <= -outer {
+            0.0
+        } else if d >= outer {
+            1.0
+        } else if b < 1e-12 {
+            (d + outer) / (2.0 * outer)
+        } else if d <= -inner {
+            (d + outer).powi(2) / (2.0 * a * b)
+        } else if d <= inner {
+            (d + inner) / a + b / (2.0 * a)
+        } else {
+            1.0 - (outer - d).powi(2) / (2.0 * a * b)
+        }
+    }
 }
 
 /// Where everything is, in pixels, and how the chart was exposed. The measured photograph is
@@ -146,6 +171,39 @@ pub struct Layout {
     pub texture_block_px: usize,
     /// Seed of the texture blocks.
     pub texture_seed: u64,
+    /// Reflectances of the texture blocks, row-major over the texture box in blocks (the last
+    /// column and row may be cut by the box), so that another tool can draw the same chart.
+    #[serde(default)]
+    pub texture_reflectances: Vec<f64>,
+    /// How the chart was exposed and read out, so that another tool can draw the photograph
+    /// with noise of its own.
+    #[serde(default)]
+    pub sensor_record: SensorRecord,
+}
+
+/// The exposure and the sensor's figures behind a chart image, at the chart's gain and
+/// binning. A pixel of reflectance `rho` at field angle `theta` collects on average
+/// `signal_e_per_reflectance * rho * cos^4(theta)` signal electrons (cos^4 where the camera
+/// vignettes; `tan theta` is the offset on the chart over `distance_m`), plus `dark_e`; it
+/// reads `black_offset_dn + system_gain_dn_per_e * electrons` plus read noise of
+/// `read_noise_dn`, rounded and clipped to the ADC range; charge beyond `full_well_e` is lost.
+/// The catalog's default sensor has no fixed-pattern noise, so these figures are all of it.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct SensorRecord {
+    /// Mean signal electrons of a pixel on the optical axis per unit reflectance.
+    pub signal_e_per_reflectance: f64,
+    /// Whether the relative illumination falls as cos^4 of the field angle.
+    pub cos4_vignetting: bool,
+    /// Mean dark-current electrons in the exposure.
+    pub dark_e: f64,
+    /// DN per electron at the chart's gain.
+    pub system_gain_dn_per_e: f64,
+    /// Output with no charge at all, DN.
+    pub black_offset_dn: f64,
+    /// Temporal read noise, DN.
+    pub read_noise_dn: f64,
+    /// Charge capacity of a pixel, electrons (`null`: charge is not clipped).
+    pub full_well_e: Option<f64>,
 }
 
 /// Seed of the texture, fixed: the chart is one printed object.
@@ -218,7 +276,15 @@ impl Layout {
             texture,
             texture_block_px: (width / 80).max(2),
             texture_seed: TEXTURE_SEED,
+            texture_reflectances: Vec::new(),
+            sensor_record: SensorRecord::default(),
         }
+        .with_texture()
+    }
+
+    fn with_texture(mut self) -> Layout {
+        self.texture_reflectances = self.texture_blocks();
+        self
     }
 
     /// Reflectance at a continuous pixel position.
@@ -260,22 +326,21 @@ impl Layout {
         (0..tw * th).map(|_| 0.1 + 0.7 * r.random::<f64>()).collect()
     }
 
-    /// Reflectance image, area-averaged over each pixel.
+    /// Reflectance image, each pixel the exact mean over its area. Every boundary of the chart
+    /// but the slanted edges falls on pixel borders (cells, patches and texture blocks start at
+    /// whole pixels), so a pixel outside the edges' cells reads its centre, and one inside reads
+    /// the share of its square on the bright side ([`Edge::bright_share`]).
     #[must_use]
     pub fn reflectance_image(&self) -> Vec<f64> {
         let tex = self.texture_blocks();
-        let (w, h) = (self.width_px, self.height_px);
-        let s = SUPERSAMPLE as f64;
-        (0..w * h)
+        let w = self.width_px;
+        (0..w * self.height_px)
             .map(|i| {
-                let (px, py) = ((i % w) as f64, (i / w) as f64);
-                let mut acc = 0.0;
-                for sy in 0..SUPERSAMPLE {
-                    for sx in 0..SUPERSAMPLE {
-                        acc += self.reflectance(px + (sx as f64 + 0.5) / s, py + (sy as f64 + 0.5) / s, &tex);
-                    }
+                let (x, y) = ((i % w) as f64 + 0.5, (i / w) as f64 + 0.5);
+                match self.edges.iter().find(|e| e.cell.contains(x, y)) {
+                    Some(e) => e.dark + (e.bright - e.dark) * e.bright_share(x, y),
+                    None => self.reflectance(x, y, &tex),
                 }
-                acc / (s * s)
             })
             .collect()
     }
@@ -319,6 +384,17 @@ pub fn chart_layout(resolved: &ResolvedCamera, distance_m: f64) -> Layout {
     layout.exposure_s = spec.exposure_s;
     layout.gain_db = gain_db;
     layout.black_level_dn = black;
+    let k = model.k_dn_per_e(gain_db);
+    let dark_e = model.dark_e(spec.exposure_s);
+    layout.sensor_record = SensorRecord {
+        signal_e_per_reflectance: model.quantum_efficiency * p1 * layout.illuminance_lux / std::f64::consts::PI,
+        cos4_vignetting: cam.vignetting,
+        dark_e,
+        system_gain_dn_per_e: k,
+        black_offset_dn: black - k * dark_e,
+        read_noise_dn: model.read_noise_dn(gain_db),
+        full_well_e: model.full_well_e(),
+    };
     layout
 }
 
@@ -349,3 +425,52 @@ pub fn expected(model: &SensorModel, layout: &Layout, photons: &[f32]) -> Vec<f6
 /// Scale of the noiseless chart PNG: it holds `round(MEAN_PNG_SCALE * DN)` so that the
 /// sub-DN shading survives (at the binned resolution the darkest patches' noise is under 1 DN).
 pub const MEAN_PNG_SCALE: f64 = 16.0;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The closed form against a 200 x 200 grid of point samples over the pixel, for slants
+    /// from axis-aligned to diagonal and offsets across the whole transition.
+    #[test]
+    fn bright_share_is_the_area_on_the_bright_side() {
+        let n = 200;
+        for angle_deg in [0.0, 5.0, 30.0, 45.0, 85.0, 95.0, 137.0] {
+            let e = edge("vertical", PixelBox { x0: 0, y0: 0, x1: 10, y1: 10 }, angle_deg);
+            for k in 0..=20 {
+                let (x, y) = (5.0 + 0.07 * f64::from(k) - 0.7, 5.0 + 0.03 * f64::from(k));
+                let sampled = (0..n * n)
+                    .filter(|i| {
+                        let (u, v) = (((i % n) as f64 + 0.5) / n as f64 - 0.5, ((i / n) as f64 + 0.5) / n as f64 - 0.5);
+                        e.distance(x + u, y + v) > 0.0
+                    })
+                    .count() as f64
+                    / (n * n) as f64;
+                let exact = e.bright_share(x, y);
+                assert!((exact - sampled).abs() < 0.01, "{angle_deg} deg at ({x}, {y}): {exact} vs {sampled}");
+            }
+        }
+    }
+
+    /// Away from the edges a pixel holds one reflectance, so the image is exactly the cell,
+    /// block or patch value there, and the texture written into the layout is the one drawn.
+    #[test]
+    fn reflectance_image_is_exact_off_the_edges() {
+        let layout = Layout::grid(160, 100);
+        let img = layout.reflectance_image();
+        let tex = layout.texture_blocks();
+        assert_eq!(layout.texture_reflectances, tex);
+        for p in &layout.patches {
+            for y in p.cell.y0..p.cell.y1 {
+                for x in p.cell.x0..p.cell.x1 {
+                    assert_eq!(img[y * 160 + x], p.reflectance);
+                }
+            }
+        }
+        for e in &layout.edges {
+            let row = e.cell.centre().1 as usize * 160;
+            let mixed = (e.cell.x0..e.cell.x1).filter(|&x| img[row + x] > e.dark && img[row + x] < e.bright).count();
+            assert!(mixed >= 1, "{}: no pixel of the middle row is mixed", e.id);
+        }
+    }
+}

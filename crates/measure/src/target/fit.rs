@@ -25,7 +25,8 @@ use serde_json::json;
 
 use super::effects::{Falloff, LensBlur, MotionBlur};
 use super::stats::{self, Gap, SimStats, Stats, Tolerance};
-use super::{Simulator, Step, TargetModel, TargetResult, Trial};
+use super::{Simulator, Step, TargetModel, TargetResult, Trial, comparison};
+use crate::gap::misfit::Evidence;
 use crate::search::{self, Effect, Problem};
 
 /// Re-simulations polishing each candidate's parameters.
@@ -441,6 +442,9 @@ pub fn search(m: &Stats, start: TargetModel, sim: &Simulator, tol: &Tolerance) -
             entangled: Vec::new(),
         })
         .collect();
+    let evidence = (outcome.accepted.iter())
+        .map(|a| Evidence { before: comparison(&a.before.1), accepted: comparison(&a.accepted.1), penalty: a.penalty })
+        .collect();
     let trials = outcome
         .trials
         .iter()
@@ -463,6 +467,7 @@ pub fn search(m: &Stats, start: TargetModel, sim: &Simulator, tol: &Tolerance) -
         gap_initial,
         gap_final,
         steps,
+        evidence,
         trials,
         misfit: None,
     }
