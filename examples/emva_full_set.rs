@@ -29,13 +29,14 @@ fn main() {
     let effects = Effects {
         black_level: noise::BlackLevel { enabled: true, offset_dn: 29.4 },
         quantization: noise::Quantization { enabled: true, dither_dn: 0.0 },
-        nonlinearity: noise::Nonlinearity { enabled: true, a: -0.02 },
+        nonlinearity: noise::Nonlinearity { enabled: true, a3: -0.02, ..noise::Nonlinearity::default() },
         dsnu: noise::Dsnu { enabled: true, std_e: 1.5 / k },
         prnu: noise::Prnu { enabled: true, std_fraction: 0.005 },
         hot_pixels: noise::HotPixels {
             enabled: true,
             fraction: 100.0 / (640.0 * 480.0),
             max_excess_e_per_s: 15.0 / k / exposure_s,
+            ..noise::HotPixels::default()
         },
         periodic_pattern: noise::PeriodicPattern {
             enabled: true,

@@ -45,10 +45,15 @@ fn model_case(frames: u64) {
     let mut model = SensorModel::from_sensor(&sensor, 1);
     model.effects = Effects {
         read_noise_split: noise::ReadNoiseSplit { enabled: true, post_gain_fraction: 0.3 },
-        nonlinearity: noise::Nonlinearity { enabled: true, a: -0.02 },
+        nonlinearity: noise::Nonlinearity { enabled: true, a3: -0.02, ..noise::Nonlinearity::default() },
         dsnu: noise::Dsnu { enabled: true, std_e: 5.0 },
         prnu: noise::Prnu { enabled: true, std_fraction: 0.01 },
-        hot_pixels: noise::HotPixels { enabled: true, fraction: 1e-4, max_excess_e_per_s: 1e4 },
+        hot_pixels: noise::HotPixels {
+            enabled: true,
+            fraction: 1e-4,
+            max_excess_e_per_s: 1e4,
+            ..noise::HotPixels::default()
+        },
         row_column_noise: noise::RowColumnNoise { enabled: true, row_std_dn: 0.5, column_std_dn: 0.5 },
         periodic_pattern: noise::PeriodicPattern {
             enabled: true,

@@ -127,7 +127,7 @@ fn known_camera() -> SensorModel {
             dark_current: noise::DarkCurrent { enabled: true, rate_e_per_s: 1000.0 },
             quantization: noise::Quantization { enabled: true, dither_dn: 0.0 },
             saturation: noise::Saturation { enabled: true, full_well_e: 40_000.0 },
-            nonlinearity: noise::Nonlinearity { enabled: true, a: -0.02 },
+            nonlinearity: noise::Nonlinearity { enabled: true, a3: -0.02, ..noise::Nonlinearity::default() },
             dsnu: noise::Dsnu { enabled: true, std_e: 10.0 },
             prnu: noise::Prnu { enabled: true, std_fraction: 0.01 },
             ..Effects::default()

@@ -346,7 +346,7 @@ fn each_effect_changes_its_statistic() {
     assert!(raw.iter().any(|v| v.fract() != 0.0));
     // nonlinearity: a = -0.1 compresses a half-scale signal by 0.1 * 0.5^3 = 1.25 %.
     let mut m = base.clone();
-    m.effects.nonlinearity = noise::Nonlinearity { enabled: true, a: -0.1 };
+    m.effects.nonlinearity = noise::Nonlinearity { enabled: true, a3: -0.1, ..noise::Nonlinearity::default() };
     let photons = (0.5 * 4095.0 / 0.2 / 0.6) as f32;
     let (lin, non) = (pair(&base, photons, 0.0, 0.0, 5).0 - 64.0, pair(&m, photons, 0.0, 0.0, 5).0 - 64.0);
     assert!((non / lin - (1.0 - 0.1 * (lin / 4095.0).powi(3))).abs() < 0.002, "{lin} {non}");
@@ -371,7 +371,8 @@ fn each_effect_changes_its_statistic() {
     assert!((prnu_dn / 60.0 - 1.0).abs() < 0.05, "{prnu_dn}");
     // hot_pixels: about `fraction` of pixels sit far above the dark level.
     let mut m = base.clone();
-    m.effects.hot_pixels = noise::HotPixels { enabled: true, fraction: 0.01, max_excess_e_per_s: 1.0e6 };
+    m.effects.hot_pixels =
+        noise::HotPixels { enabled: true, fraction: 0.01, max_excess_e_per_s: 1.0e6, ..noise::HotPixels::default() };
     let dark = m.simulate(&vec![0.0; W * H], W, H, 0.01, 0.0, 6);
     let hot = dark.iter().filter(|&&v| v > 64 + 50).count() as f64 / (W * H) as f64;
     assert!((0.006..0.014).contains(&hot), "{hot}");
@@ -420,7 +421,7 @@ fn same_seed_same_bytes_at_any_thread_count() {
 #[test]
 fn model_toml_round_trips_and_rejects_bad_values() {
     let mut m = test_model();
-    m.effects.nonlinearity = noise::Nonlinearity { enabled: true, a: -0.02 };
+    m.effects.nonlinearity = noise::Nonlinearity { enabled: true, a3: -0.02, ..noise::Nonlinearity::default() };
     let text = m.to_toml().unwrap();
     assert!(text.contains("[effects.nonlinearity]"));
     assert_eq!(SensorModel::from_toml(&text).unwrap(), m);

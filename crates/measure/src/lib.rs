@@ -16,5 +16,6 @@
 
 pub mod calibration;
 pub mod gap;
+pub mod least_squares;
 pub mod search;
 pub mod target;

@@ -29,8 +29,9 @@ pub trait Effect<P: Problem + ?Sized> {
     /// The effect's name, from the effect list of docs/CONTRACTS.md.
     fn name(&self) -> &'static str;
 
-    /// Parameters the fit sets (the `k` of the penalty).
-    fn param_count(&self) -> usize;
+    /// Parameters the fit sets in `model` (the `k` of the penalty): fixed for most effects, the
+    /// chosen order for one whose form the fit chooses.
+    fn param_count(&self, model: &P::Model) -> usize;
 
     /// Factor on the penalty `k ln n`: [`PENALTY_FACTOR`] unless the effect's evidence has a
     /// variance the model itself gives (Poisson counts: 1).
@@ -197,7 +198,7 @@ pub fn greedy<P: Problem + 'static>(problem: &mut P, start: P::Model) -> Outcome
         let first = trials.len();
         let mut best: Option<usize> = None;
         for (i, p) in proposals.into_iter().enumerate() {
-            let penalty = p.effect.penalty_factor() * p.effect.param_count() as f64 * ln_n;
+            let penalty = p.effect.penalty_factor() * p.effect.param_count(&p.model) as f64 * ln_n;
             let (chi2_drop, full_sim) = if full[i] {
                 let s = p.sim.unwrap_or_else(|| problem.simulate(&p.model));
                 (chi2 - P::chi2(&s), Some(s))
@@ -226,7 +227,8 @@ pub fn greedy<P: Problem + 'static>(problem: &mut P, start: P::Model) -> Outcome
         );
         let (effect, candidate) = (trial.effect, trial.model.clone());
         let candidate_sim = trial.sim.clone().expect("the best trial was simulated in full");
-        let param_count = problem.effects().iter().find(|e| e.name() == effect).map_or(0, |e| e.param_count());
+        let param_count =
+            problem.effects().iter().find(|e| e.name() == effect).map_or(0, |e| e.param_count(&candidate));
         added.push(effect);
         let before = std::mem::replace(&mut sim, candidate_sim.clone());
         (model, sim) = problem.polish(&added, candidate, candidate_sim.clone());

@@ -120,14 +120,101 @@ pub struct Saturation {
     pub full_well_e: f64,
 }
 
-/// Cubic nonlinearity of the signal above black level: `y' = y (1 + a (y/y_max)^3)`, the form
-/// used by EMVA 1288 reference data set 003 (a < 0 compresses, a > 0 expands; `a` is the
-/// relative deviation at full scale).
+/// Nonlinearity of the signal above black level, a polynomial in the signal's share of full
+/// scale `r = y / y_max`: `y' = y (1 + a1 r + a2 r^2 + a3 r^3)`. Each coefficient is a relative
+/// deviation at full scale (negative compresses, positive expands); the order is the highest
+/// nonzero term ([`Nonlinearity::order`]). A pure cubic (`a3` alone, read also as `a`) is
+/// the form of EMVA 1288 reference data set 003; `gap` chooses the order by its penalty.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct Nonlinearity {
     pub enabled: bool,
-    pub a: f64,
+    pub a1: f64,
+    pub a2: f64,
+    #[serde(alias = "a")]
+    pub a3: f64,
+}
+
+impl Nonlinearity {
+    /// Terms of the polynomial, lowest first.
+    pub const MAX_ORDER: usize = 3;
+
+    /// The coefficients `[a1, a2, a3]`.
+    #[must_use]
+    pub fn coefficients(&self) -> [f64; 3] {
+        [self.a1, self.a2, self.a3]
+    }
+
+    /// The factor `1 + a1 r + a2 r^2 + a3 r^3` on a signal at `r` of full scale (1 when off).
+    #[inline]
+    #[must_use]
+    pub fn factor(&self, r: f64) -> f64 {
+        if self.enabled { 1.0 + self.a1 * r + self.a2 * r * r + self.a3 * r * r * r } else { 1.0 }
+    }
+
+    /// Highest nonzero term, 0 when off or flat.
+    #[must_use]
+    pub fn order(&self) -> usize {
+        if !self.enabled {
+            return 0;
+        }
+        self.coefficients().iter().rposition(|&a| a != 0.0).map_or(0, |i| i + 1)
+    }
+
+    /// The polynomial on DN, `g(x) = x + c1 x^2 + c2 x^3 + c3 x^4` with `c_k = a_k / max^k`
+    /// (identity when off).
+    #[must_use]
+    pub fn in_dn(&self, max_dn: f64) -> DnPolynomial {
+        if !self.enabled {
+            return DnPolynomial::default();
+        }
+        DnPolynomial { c: [self.a1 / max_dn, self.a2 / (max_dn * max_dn), self.a3 / (max_dn * max_dn * max_dn)] }
+    }
+}
+
+/// A nonlinearity on DN values, `g(x) = x + c[0] x^2 + c[1] x^3 + c[2] x^4`.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct DnPolynomial {
+    pub c: [f64; 3],
+}
+
+impl DnPolynomial {
+    /// Whether `g` is the identity.
+    #[must_use]
+    pub fn is_identity(&self) -> bool {
+        self.c == [0.0; 3]
+    }
+
+    /// `g(x)`.
+    #[inline]
+    #[must_use]
+    pub fn apply(&self, x: f64) -> f64 {
+        x + self.bend(x)
+    }
+
+    /// `g(x) - x`.
+    #[inline]
+    #[must_use]
+    pub fn bend(&self, x: f64) -> f64 {
+        let [c1, c2, c3] = self.c;
+        c1 * x * x + c2 * x * x * x + c3 * x * x * x * x
+    }
+
+    /// `g'(x)`.
+    #[inline]
+    #[must_use]
+    pub fn slope(&self, x: f64) -> f64 {
+        let [c1, c2, c3] = self.c;
+        1.0 + 2.0 * c1 * x + 3.0 * c2 * x * x + 4.0 * c3 * x * x * x
+    }
+
+    /// `g''(x)`.
+    #[inline]
+    #[must_use]
+    pub fn curvature(&self, x: f64) -> f64 {
+        let [c1, c2, c3] = self.c;
+        2.0 * c1 + 6.0 * c2 * x + 12.0 * c3 * x * x
+    }
 }
 
 /// Dark signal non-uniformity: a fixed Gaussian offset per pixel, electrons (before the gain).
@@ -147,13 +234,43 @@ pub struct Prnu {
     pub std_fraction: f64,
 }
 
-/// A fixed fraction of pixels with excess dark current, uniform in `0..max_excess_e_per_s`.
+/// A fixed fraction of pixels with excess dark current. The excess follows the quantile
+/// function `excess_quantiles_e_per_s` (values at probabilities `0, 1/7, ..., 1`, linear
+/// between them) where it is given, as a measured distribution does; without it, uniform in
+/// `0..max_excess_e_per_s`.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct HotPixels {
     pub enabled: bool,
     pub fraction: f64,
     pub max_excess_e_per_s: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub excess_quantiles_e_per_s: Option<[f64; HotPixels::QUANTILES]>,
+}
+
+impl HotPixels {
+    /// Points of the quantile function.
+    pub const QUANTILES: usize = 8;
+
+    /// The excess dark current at probability `p` (0..1) of the hot pixels' distribution, e-/s.
+    #[must_use]
+    pub fn excess_at(&self, p: f64) -> f64 {
+        match &self.excess_quantiles_e_per_s {
+            None => p * self.max_excess_e_per_s,
+            Some(q) => quantile_at(q, p),
+        }
+    }
+}
+
+/// Piecewise-linear quantile function through `q` (at least one value) at evenly spaced
+/// probabilities `0..=1`, at `p`.
+#[must_use]
+pub fn quantile_at(q: &[f64], p: f64) -> f64 {
+    let last = q.len() - 1;
+    let x = p.clamp(0.0, 1.0) * last as f64;
+    let i = (x.floor() as usize).min(last.saturating_sub(1));
+    let t = x - i as f64;
+    q[i] + t * (q[(i + 1).min(last)] - q[i])
 }
 
 /// Row noise (a fresh offset per row and frame, temporal) and column fixed-pattern noise (a
@@ -166,21 +283,55 @@ pub struct RowColumnNoise {
     pub column_std_dn: f64,
 }
 
-/// Fixed sinusoidal offsets, DN: `A sin(2 pi (fx x + wx y)) + A sin(2 pi (wy x + fy y))`, two
-/// plane waves of one amplitude. With `wx = wy = 0` (the default) a column and a row sinusoid;
-/// EMVA 1288 data set 003's DSNU patterns are diagonal waves (its 2-D spectrum peaks at
-/// (0.04, 0.04) and (0.2, 0.2) cycles/px), which the cross terms describe.
+/// Fixed sinusoidal offsets, DN: `A sin(2 pi (fx x + wx y)) + B sin(2 pi (wy x + fy y))`, two
+/// plane waves, each with its own amplitude (`B` is `amplitude_y_dn`, or `A` where that is
+/// absent). With `wx = wy = 0` (the default) a column and a row sinusoid; the cross terms turn
+/// them into diagonal waves, as in EMVA 1288 data set 003 (its 2-D spectrum peaks at (0.04,
+/// 0.04) and (0.2, 0.2) cycles/px). A wave whose two frequencies are 0 is absent.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct PeriodicPattern {
     pub enabled: bool,
+    /// Amplitude of the first (x) wave, and of the second where `amplitude_y_dn` is absent.
     pub amplitude_dn: f64,
+    /// Amplitude of the second (y) wave.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub amplitude_y_dn: Option<f64>,
     pub freq_x_cycles_per_px: f64,
     pub freq_y_cycles_per_px: f64,
     /// y frequency of the first (x) wave, `wx`.
     pub wave_x_freq_y_cycles_per_px: f64,
     /// x frequency of the second (y) wave, `wy`.
     pub wave_y_freq_x_cycles_per_px: f64,
+}
+
+impl PeriodicPattern {
+    /// Amplitudes of the first (x) and the second (y) wave, DN.
+    #[must_use]
+    pub fn amplitudes(&self) -> (f64, f64) {
+        (self.amplitude_dn, self.amplitude_y_dn.unwrap_or(self.amplitude_dn))
+    }
+
+    /// Which of the two waves are present (a wave with both frequencies 0 is not).
+    #[must_use]
+    pub fn waves_present(&self) -> [bool; 2] {
+        [
+            self.freq_x_cycles_per_px != 0.0 || self.wave_x_freq_y_cycles_per_px != 0.0,
+            self.freq_y_cycles_per_px != 0.0 || self.wave_y_freq_x_cycles_per_px != 0.0,
+        ]
+    }
+
+    /// Spatial variance of the pattern over a whole number of periods, DN^2 (`A^2 / 2` per wave
+    /// present).
+    #[must_use]
+    pub fn variance_dn2(&self) -> f64 {
+        if !self.enabled {
+            return 0.0;
+        }
+        let (a, b) = self.amplitudes();
+        let [x, y] = self.waves_present();
+        (if x { a * a / 2.0 } else { 0.0 }) + (if y { b * b / 2.0 } else { 0.0 })
+    }
 }
 
 macro_rules! off_by_default {
@@ -197,13 +348,14 @@ off_by_default!(
     ReadNoiseSplit { post_gain_fraction: 0.5 },
     Quantization { dither_dn: 0.0 },
     Saturation { full_well_e: f64::INFINITY },
-    Nonlinearity { a: 0.0 },
+    Nonlinearity { a1: 0.0, a2: 0.0, a3: 0.0 },
     Dsnu { std_e: 0.0 },
     Prnu { std_fraction: 0.0 },
-    HotPixels { fraction: 0.0, max_excess_e_per_s: 0.0 },
+    HotPixels { fraction: 0.0, max_excess_e_per_s: 0.0, excess_quantiles_e_per_s: None },
     RowColumnNoise { row_std_dn: 0.0, column_std_dn: 0.0 },
     PeriodicPattern {
         amplitude_dn: 0.0,
+        amplitude_y_dn: None,
         freq_x_cycles_per_px: 0.0,
         freq_y_cycles_per_px: 0.0,
         wave_x_freq_y_cycles_per_px: 0.0,
@@ -364,6 +516,14 @@ impl SensorModel {
         if !(0.0..=1.0).contains(&h) {
             return bad(format!("hot_pixels.fraction must be in 0..1, got {h}"));
         }
+        if let Some(q) = &self.effects.hot_pixels.excess_quantiles_e_per_s {
+            let ordered = q.windows(2).all(|w| w[0] <= w[1]);
+            if !q.iter().all(|v| v.is_finite() && *v >= 0.0) || !ordered {
+                return bad(format!(
+                    "hot_pixels.excess_quantiles_e_per_s must be finite, non-negative and non-decreasing, got {q:?}"
+                ));
+            }
+        }
         Ok(())
     }
 
@@ -428,12 +588,7 @@ impl SensorModel {
 
     fn nonlinear(&self, y: f64) -> f64 {
         let n = self.effects.nonlinearity;
-        if n.enabled {
-            let r = y / self.max_dn();
-            y * (1.0 + n.a * r * r * r)
-        } else {
-            y
-        }
+        if n.enabled { y * n.factor(y / self.max_dn()) } else { y }
     }
 
     /// Mean output of a typical pixel (no fixed-pattern offsets, not hot), DN, for a mean of
@@ -485,10 +640,10 @@ impl SensorModel {
             Vec::new()
         };
         let hot_e_per_s = if e.hot_pixels.enabled {
-            let (p, m) = (e.hot_pixels.fraction, e.hot_pixels.max_excess_e_per_s);
+            let hp = e.hot_pixels;
             map("sensor/hot", &|r| {
-                let hot = r.random::<f64>() < p;
-                let excess = r.random::<f64>() * m;
+                let hot = r.random::<f64>() < hp.fraction;
+                let excess = hp.excess_at(r.random::<f64>());
                 if hot { excess as f32 } else { 0.0 }
             })
         } else {
@@ -811,8 +966,7 @@ impl FrameSimulator<'_> {
                 electrons = electrons.min(full_well);
                 let mut y = k * electrons;
                 if nl.enabled {
-                    let q = y / max;
-                    y *= 1.0 + nl.a * q * q * q;
+                    y *= nl.factor(y / max);
                 }
                 if post_sd > 0.0 {
                     y += post_sd * post_z[i];
@@ -869,13 +1023,14 @@ impl FrameSimulator<'_> {
     /// only when the pattern is on.
     #[inline(always)]
     fn periodic_dn(&self, row_waves: &[(f64, f64); 2], c: usize) -> f64 {
-        let amplitude = self.model.effects.periodic_pattern.amplitude_dn;
+        let (ax, ay) = self.model.effects.periodic_pattern.amplitudes();
         let [(sx, cx), (sy, cy)] = self.col_waves[c];
         if self.separable {
-            amplitude * row_waves[1].0 + amplitude * sx
+            ay * row_waves[1].0 + ax * sx
         } else {
             let [(sxr, cxr), (syr, cyr)] = *row_waves;
-            amplitude * ((sx * cxr + cx * sxr) + (sy * cyr + cy * syr))
+            let (x_wave, y_wave) = (sx * cxr + cx * sxr, sy * cyr + cy * syr);
+            if ax == ay { ax * (x_wave + y_wave) } else { ax * x_wave + ay * y_wave }
         }
     }
 
@@ -917,7 +1072,7 @@ impl FrameSimulator<'_> {
         let dither_dn = if e.quantization.enabled { e.quantization.dither_dn } else { 0.0 };
         let extra_var = self.post_sd * self.post_sd + dither_dn * dither_dn / 12.0;
         let row_var = self.row_sd * self.row_sd;
-        let c = self.nonlinearity_c();
+        let g = self.nonlinearity_dn();
         let pixels = self.row_inputs(constants, r, photons);
         // The darkest pixel's electrons and gain slope, for the rounding bound.
         let (mut lambda_min, mut slope_at_min, mut var_at_min) = (f64::INFINITY, 1.0, 0.0);
@@ -931,12 +1086,15 @@ impl FrameSimulator<'_> {
             below_full_well &= headroom > 0.0 && headroom * headroom > 64.0 * var_e;
             let (mu, v) = (k * mean_e, k * k * var_e);
             let (mut a, mut slope, mut curvature) = (mu, 1.0, 0.0);
-            if c != 0.0 {
-                // E[x^4] from the cumulants of x = k e: Poisson's are all lambda, the read noise
-                // adds to the second.
+            if !g.is_identity() {
+                // E[x^2..4] from the cumulants of x = k e: Poisson's are all lambda, the read
+                // noise adds to the second.
                 let (k3, k4) = (k * k * k * lambda, k * k * k * k * lambda);
+                let x2 = mu * mu + v;
+                let x3 = mu * mu * mu + 3.0 * mu * v + k3;
                 let x4 = mu * mu * mu * mu + 6.0 * mu * mu * v + 4.0 * mu * k3 + k4 + 3.0 * v * v;
-                (a, slope, curvature) = (mu + c * x4, 1.0 + 4.0 * c * mu * mu * mu, 12.0 * c * mu * mu);
+                let [c1, c2, c3] = g.c;
+                (a, slope, curvature) = (mu + c1 * x2 + c2 * x3 + c3 * x4, g.slope(mu), g.curvature(mu));
             }
             a += px.offset_dn;
             let vy = slope * slope * v + 0.5 * curvature * curvature * v * v + extra_var;
@@ -994,10 +1152,9 @@ impl FrameSimulator<'_> {
         r.mean_dn <= ROUNDING_BIAS_MAX_DN && r.var_dn2 <= ROUNDING_VAR_ERROR_MAX * var_dn2
     }
 
-    /// `c` of the nonlinearity `g(x) = x + c x^4` (x in DN): `a / max^3`, 0 when it is off.
-    fn nonlinearity_c(&self) -> f64 {
-        let nl = self.model.effects.nonlinearity;
-        if nl.enabled { nl.a / (self.max * self.max * self.max) } else { 0.0 }
+    /// The nonlinearity as a polynomial on DN ([`Nonlinearity::in_dn`]).
+    fn nonlinearity_dn(&self) -> DnPolynomial {
+        self.model.effects.nonlinearity.in_dn(self.max)
     }
 
     /// Each pixel of row `r`: its Poisson mean, its DSNU and its fixed offset (black level,
@@ -1028,7 +1185,7 @@ impl FrameSimulator<'_> {
     /// when a pixel's sum would take more than [`EXACT_TERMS_MAX`] terms.
     fn exact_row_moments(&self, pixels: &[PixelInputs], mean: &mut [f64], var: &mut [f64]) -> bool {
         let k = self.k;
-        let c = self.nonlinearity_c();
+        let g = self.nonlinearity_dn();
         let smooth_sd = (k * k * self.pre_sd * self.pre_sd + self.post_sd * self.post_sd).sqrt();
         let row_var = self.row_sd * self.row_sd;
         // One table serves every dark pixel of the frame, whichever row comes first.
@@ -1037,7 +1194,7 @@ impl FrameSimulator<'_> {
             let base = k * px.dsnu_e + px.offset_dn;
             let reach = k * poisson_range(px.lambda_e).1 as f64 + 8.0 * (smooth_sd * smooth_sd + row_var).sqrt();
             let clear = base - reach > 0.5 && base + reach < self.max - 0.5;
-            let straight = c == 0.0 || (c * (base + reach).powi(4)).abs() < ROUNDING_BIAS_MAX_DN;
+            let straight = g.is_identity() || g.bend(base + reach).abs() < ROUNDING_BIAS_MAX_DN;
             if px.dark_only
                 && clear
                 && straight
@@ -1048,7 +1205,7 @@ impl FrameSimulator<'_> {
             }
             let (low, high) = (mean[i] + 0.5, self.max + 0.5 - mean[i]);
             let reach2 = 64.0 * (var[i] - 1.0 / 12.0 + row_var);
-            let slope = 1.0 + 4.0 * c * (k * (px.lambda_e + px.dsnu_e)).powi(3);
+            let slope = g.slope(k * (px.lambda_e + px.dsnu_e));
             let smooth = low > 0.0
                 && high > 0.0
                 && low * low > reach2
@@ -1060,13 +1217,8 @@ impl FrameSimulator<'_> {
             if SumPlan::new(px.lambda_e, k, smooth_sd).terms() > EXACT_TERMS_MAX {
                 return false;
             }
-            let pixel = RoundedPixel {
-                lambda_e: px.lambda_e,
-                k,
-                dsnu_e: px.dsnu_e,
-                offset_dn: px.offset_dn,
-                nonlinearity_c: c,
-            };
+            let pixel =
+                RoundedPixel { lambda_e: px.lambda_e, k, dsnu_e: px.dsnu_e, offset_dn: px.offset_dn, nonlinearity: g };
             (mean[i], var[i]) = rounded_moments(&pixel, smooth_sd, 0.0, self.max);
         }
         true
@@ -1137,13 +1289,13 @@ fn rounding_error_bounds(lambda: f64, s: f64, smooth_var: f64, dither: f64, var:
 pub const EXACT_TERMS_MAX: usize = 64;
 
 /// A pixel's output before rounding, `y = g(k (N + dsnu)) + offset + noise`, `N` Poisson of
-/// mean `lambda_e`, `g(x) = x + c x^4` ([`rounded_moments`]).
+/// mean `lambda_e`, through the nonlinearity `g` ([`rounded_moments`]).
 struct RoundedPixel {
     lambda_e: f64,
     k: f64,
     dsnu_e: f64,
     offset_dn: f64,
-    nonlinearity_c: f64,
+    nonlinearity: DnPolynomial,
 }
 
 /// How [`rounded_moments`] sums a pixel: over the Poisson counts `n_lo..=n_hi` with Gaussian
@@ -1204,7 +1356,7 @@ fn rounded_moments(px: &RoundedPixel, smooth_sd: f64, lo: f64, hi: f64) -> (f64,
     let (n_lo, n_hi, smooth_sd) = (plan.n_lo, plan.n_hi, plan.sd);
     let level = |n: f64| {
         let x = px.k * (n + px.dsnu_e);
-        x + px.nonlinearity_c * x * x * x * x + px.offset_dn
+        px.nonlinearity.apply(x) + px.offset_dn
     };
     let centre = round_exact(level(px.lambda_e));
     let cdf = |x: f64, mu: f64| 0.5 * libm::erfc((mu - x) / (smooth_sd * std::f64::consts::SQRT_2));
@@ -1267,7 +1419,7 @@ impl RoundingTable {
         let nodes = (0..=ROUNDING_TABLE_NODES)
             .map(|j| {
                 let f = j as f64 / ROUNDING_TABLE_NODES as f64;
-                let px = RoundedPixel { lambda_e, k, dsnu_e: 0.0, offset_dn: f, nonlinearity_c: 0.0 };
+                let px = RoundedPixel { lambda_e, k, dsnu_e: 0.0, offset_dn: f, nonlinearity: DnPolynomial::default() };
                 let (m, v) = rounded_moments(&px, smooth_sd, f64::NEG_INFINITY, f64::INFINITY);
                 (m - f, v)
             })
@@ -1776,10 +1928,15 @@ mod tests {
                 black_level: BlackLevel { enabled: black_dn > 0.0, offset_dn: black_dn },
                 dark_current: DarkCurrent { enabled: true, rate_e_per_s: dark_e_per_s },
                 quantization: Quantization { enabled: true, dither_dn: 0.0 },
-                nonlinearity: Nonlinearity { enabled: nonlinear, a: -0.03 },
+                nonlinearity: Nonlinearity { enabled: nonlinear, a1: -0.02, a2: 0.015, a3: -0.03 },
                 dsnu: Dsnu { enabled: true, std_e: dsnu_e },
                 prnu: Prnu { enabled: true, std_fraction: 0.01 },
-                hot_pixels: HotPixels { enabled: dark_e_per_s > 0.0, fraction: 0.01, max_excess_e_per_s: 2000.0 },
+                hot_pixels: HotPixels {
+                    enabled: dark_e_per_s > 0.0,
+                    fraction: 0.01,
+                    max_excess_e_per_s: 2000.0,
+                    ..HotPixels::default()
+                },
                 ..Effects::default()
             },
         }
@@ -1857,7 +2014,12 @@ mod tests {
                 effects: Effects {
                     dark_current: DarkCurrent { enabled: true, rate_e_per_s: 50.0 },
                     quantization: Quantization { enabled: true, dither_dn: 0.0 },
-                    hot_pixels: HotPixels { enabled: hot, fraction: 1.0, max_excess_e_per_s: 1e-9 },
+                    hot_pixels: HotPixels {
+                        enabled: hot,
+                        fraction: 1.0,
+                        max_excess_e_per_s: 1e-9,
+                        ..HotPixels::default()
+                    },
                     ..Effects::default()
                 },
             };
@@ -1951,14 +2113,15 @@ mod tests {
         let mut model = SensorModel::from_sensor(&sensor, 1);
         model.effects = Effects {
             read_noise_split: ReadNoiseSplit { enabled: true, post_gain_fraction: 0.3 },
-            nonlinearity: Nonlinearity { enabled: true, a: -0.02 },
+            nonlinearity: Nonlinearity { enabled: true, a3: -0.02, ..Nonlinearity::default() },
             dsnu: Dsnu { enabled: true, std_e: 5.0 },
             prnu: Prnu { enabled: true, std_fraction: 0.01 },
-            hot_pixels: HotPixels { enabled: true, fraction: 0.01, max_excess_e_per_s: 1e4 },
+            hot_pixels: HotPixels { enabled: true, fraction: 0.01, max_excess_e_per_s: 1e4, ..HotPixels::default() },
             row_column_noise: RowColumnNoise { enabled: true, row_std_dn: 0.5, column_std_dn: 0.5 },
             periodic_pattern: PeriodicPattern {
                 enabled: true,
                 amplitude_dn: 1.0,
+                amplitude_y_dn: Some(0.7),
                 freq_x_cycles_per_px: 0.04,
                 freq_y_cycles_per_px: 0.2,
                 wave_x_freq_y_cycles_per_px: 0.01,

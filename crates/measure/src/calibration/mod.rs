@@ -373,19 +373,11 @@ pub fn linearize(photons: &[f64], signal: &[f64], noise: &[f64], sat: usize) -> 
         return None;
     }
     let scale = idx.iter().map(|&i| photons[i]).fold(0.0, f64::max);
-    // Normal equations of the polynomial without constant term, in p / scale.
-    let mut a = [[0.0f64; DEGREE + 1]; DEGREE];
-    for &i in &idx {
-        let x = photons[i] / scale;
-        let basis: Vec<f64> = (1..=DEGREE).map(|d| x.powi(d as i32)).collect();
-        for r in 0..DEGREE {
-            for c in 0..DEGREE {
-                a[r][c] += basis[r] * basis[c];
-            }
-            a[r][DEGREE] += basis[r] * signal[i];
-        }
-    }
-    let coef = solve(a)?;
+    // The polynomial without constant term, in p / scale.
+    let basis: Vec<[f64; DEGREE]> =
+        idx.iter().map(|&i| std::array::from_fn(|d| (photons[i] / scale).powi(d as i32 + 1))).collect();
+    let rows = basis.iter().zip(&idx).map(|(b, &i)| (&b[..], signal[i], 1.0));
+    let coef = crate::least_squares::fit(rows, DEGREE)?.coefficients;
     let b1 = coef[0] / scale;
     if !(b1.is_finite() && b1 > 0.0) {
         return None;
@@ -396,30 +388,6 @@ pub fn linearize(photons: &[f64], signal: &[f64], noise: &[f64], sat: usize) -> 
     };
     let noise = photons.iter().zip(noise).map(|(&p, &v)| v / (slope(p) / b1).powi(2)).collect();
     Some(Linearized { responsivity: b1, signal: photons.iter().map(|p| b1 * p).collect(), noise })
-}
-
-/// Gaussian elimination with partial pivoting of an augmented N x (N+1) system.
-fn solve<const N: usize, const M: usize>(mut a: [[f64; M]; N]) -> Option<[f64; N]> {
-    for col in 0..N {
-        let pivot = (col..N).max_by(|&x, &y| a[x][col].abs().total_cmp(&a[y][col].abs()))?;
-        if a[pivot][col].abs() < 1e-300 {
-            return None;
-        }
-        a.swap(col, pivot);
-        let pivot_row = a[col];
-        for row in a.iter_mut().skip(col + 1) {
-            let f = row[col] / pivot_row[col];
-            for (v, p) in row.iter_mut().zip(pivot_row.iter()).skip(col) {
-                *v -= f * p;
-            }
-        }
-    }
-    let mut x = [0.0; N];
-    for row in (0..N).rev() {
-        let s: f64 = (row + 1..N).map(|c| a[row][c] * x[c]).sum();
-        x[row] = (a[row][N] - s) / a[row][row];
-    }
-    x.iter().all(|v| v.is_finite()).then_some(x)
 }
 
 /// The temporal dark variance without dark current, DN^2, as the EMVA 1288 reference

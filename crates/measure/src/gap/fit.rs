@@ -9,8 +9,9 @@
 use super::misfit;
 use super::stats::{self, Gap, Stats, Thresholds};
 use super::{Acquisition, Block, Draws, GapModel, GapOptions, GapResult, Light, Step, Trial, simulate_rows};
+use crate::least_squares;
 use crate::search::{self, Effect, Problem};
-use scene_gen_camera::sensor::SensorModel;
+use scene_gen_camera::sensor::{SensorModel, noise};
 
 /// Factor on the BIC penalty of an effect whose evidence is a tail count (`hot_pixels`): its
 /// statistics are Poisson counts scored by their likelihood deviance
@@ -97,7 +98,7 @@ impl Effect<GapProblem> for BlackLevel {
         "black_level"
     }
 
-    fn param_count(&self) -> usize {
+    fn param_count(&self, _: &GapModel) -> usize {
         1
     }
 
@@ -134,7 +135,7 @@ impl Effect<GapProblem> for DarkCurrent {
         "dark_current"
     }
 
-    fn param_count(&self) -> usize {
+    fn param_count(&self, _: &GapModel) -> usize {
         1
     }
 
@@ -182,7 +183,7 @@ impl Effect<GapProblem> for DitheredQuantization {
         "quantization"
     }
 
-    fn param_count(&self) -> usize {
+    fn param_count(&self, _: &GapModel) -> usize {
         1
     }
 
@@ -213,7 +214,7 @@ impl Effect<GapProblem> for ReadNoiseSplit {
         "read_noise_split"
     }
 
-    fn param_count(&self) -> usize {
+    fn param_count(&self, _: &GapModel) -> usize {
         1
     }
 
@@ -232,8 +233,8 @@ impl Effect<GapProblem> for ReadNoiseSplit {
         let cur = if split.enabled { split.post_gain_fraction } else { 0.0 };
         let (mut num, mut den) = (0.0, 0.0);
         for (dm, ds) in m.darks.iter().zip(&s.darks).filter(|(d, _)| d.group > 0) {
-            let g0 = scene_gen_camera::sensor::noise::gain_factor(s.gains_db.first().copied().unwrap_or(0.0));
-            let g = scene_gen_camera::sensor::noise::gain_factor(s.gains_db.get(dm.group).copied().unwrap_or(0.0));
+            let g0 = noise::gain_factor(s.gains_db.first().copied().unwrap_or(0.0));
+            let g = noise::gain_factor(s.gains_db.get(dm.group).copied().unwrap_or(0.0));
             let slope = k * k * v * (g0 * g0 - g * g);
             let vv = 2.0 * (dm.var_dn2.powi(2) + ds.var_dn2.powi(2)) / (m.width * m.height).max(1) as f64;
             if slope.abs() < 1e-12 || vv <= 0.0 {
@@ -269,7 +270,7 @@ impl Effect<GapProblem> for Saturation {
         "saturation"
     }
 
-    fn param_count(&self) -> usize {
+    fn param_count(&self, _: &GapModel) -> usize {
         1
     }
 
@@ -287,10 +288,10 @@ impl Effect<GapProblem> for Saturation {
             return None;
         }
         let target = plateau - black;
-        let a = if e.nonlinearity.enabled { e.nonlinearity.a } else { 0.0 };
+        let nl = e.nonlinearity;
         let mut y = target;
         for _ in 0..20 {
-            y = target / (1.0 + a * (y / max).powi(3));
+            y = target / nl.factor(y / max);
         }
         if y.is_nan() || y <= 0.0 {
             return None;
@@ -305,49 +306,58 @@ impl Effect<GapProblem> for Saturation {
     }
 }
 
-/// `nonlinearity`: A cubic compression or expansion of the response, `y (1 + a (y / y_max)^3)`, fitted jointly with a responsivity correction.
+/// `nonlinearity`: A response that bends away from linear, `y (1 + a1 r + a2 r^2 + a3 r^3)` with `r` the share of full scale, of the order (1 to 3) the penalty chooses; fitted jointly with a responsivity correction.
 #[derive(Debug)]
 pub struct Nonlinearity;
+
+impl Nonlinearity {
+    /// The order whose fit pays its penalty best: each order `n` (the terms `r^1..r^n`) is
+    /// fitted to the mean residuals by weighted least squares, jointly with the responsivity
+    /// nuisance, and scored by its chi-square plus the search's penalty on the order the model
+    /// would have. The increments of the chosen fit, responsivity first.
+    fn best_order(rows: &[MeanRow], max: f64, current_order: usize, ln_n: f64) -> Option<Vec<f64>> {
+        let basis: Vec<[f64; 4]> = rows
+            .iter()
+            .map(|&(_, y, _)| {
+                let r = y / max;
+                [y, y * r, y * r * r, y * r * r * r]
+            })
+            .collect();
+        (1..=noise::Nonlinearity::MAX_ORDER)
+            .filter_map(|n| {
+                let rows = basis.iter().zip(rows).map(|(b, &(resid, _, w))| (&b[..=n], resid, w));
+                let fit = least_squares::fit(rows, n + 1)?;
+                let order = n.max(current_order);
+                Some((fit.chi2 + search::PENALTY_FACTOR * order as f64 * ln_n, fit.coefficients))
+            })
+            .min_by(|a, b| a.0.total_cmp(&b.0))
+            .map(|(_, c)| c)
+    }
+}
 
 impl Effect<GapProblem> for Nonlinearity {
     fn name(&self) -> &'static str {
         "nonlinearity"
     }
 
-    fn param_count(&self) -> usize {
-        1
+    fn param_count(&self, model: &GapModel) -> usize {
+        model.sensor.effects.nonlinearity.order().max(1)
     }
 
-    fn fit(&self, problem: &GapProblem, model: &GapModel, (s, _): &GapSim) -> Option<GapModel> {
+    fn fit(&self, problem: &GapProblem, model: &GapModel, sim: &GapSim) -> Option<GapModel> {
         let m = &problem.ev.m;
         let mut next = model.clone();
         let Basics { max, .. } = Basics::of(&next.sensor);
         let sensor = &mut next.sensor;
-        let e = &mut sensor.effects;
-        // Joint least squares of the mean residuals on the linear signal (a responsivity
-        // correction, a nuisance) and on the cubic term `y^4 / y_max^3` (the effect).
-        let (_, rows) = mean_rows(m, s, max)?;
-        let mut a = [[0.0f64; 3]; 2];
-        for (r, y, w) in rows {
-            let z = y.powi(4) / max.powi(3);
-            let b = [y, z];
-            for i in 0..2 {
-                for j in 0..2 {
-                    a[i][j] += w * b[i] * b[j];
-                }
-                a[i][2] += w * b[i] * r;
-            }
+        let current = sensor.effects.nonlinearity;
+        let (_, rows) = mean_rows(m, &sim.0, max)?;
+        let increments = Self::best_order(&rows, max, current.order(), problem.ln_n(sim))?;
+        let mut a = if current.enabled { current.coefficients() } else { [0.0; 3] };
+        for (a, da) in a.iter_mut().zip(&increments[1..]) {
+            *a += da;
         }
-        let det = a[0][0] * a[1][1] - a[0][1] * a[1][0];
-        if det.abs() < 1e-300 {
-            return None;
-        }
-        let delta = (a[0][2] * a[1][1] - a[0][1] * a[1][2]) / det;
-        let da = (a[0][0] * a[1][2] - a[1][0] * a[0][2]) / det;
-        let cur = if e.nonlinearity.enabled { e.nonlinearity.a } else { 0.0 };
-        e.nonlinearity.enabled = true;
-        e.nonlinearity.a = cur + da;
-        sensor.quantum_efficiency = (sensor.quantum_efficiency * (1.0 + delta)).clamp(0.0, 1.0);
+        sensor.effects.nonlinearity = noise::Nonlinearity { enabled: true, a1: a[0], a2: a[1], a3: a[2] };
+        sensor.quantum_efficiency = (sensor.quantum_efficiency * (1.0 + increments[0])).clamp(0.0, 1.0);
         checked(next)
     }
 
@@ -365,7 +375,7 @@ impl Effect<GapProblem> for Dsnu {
         "dsnu"
     }
 
-    fn param_count(&self) -> usize {
+    fn param_count(&self, _: &GapModel) -> usize {
         1
     }
 
@@ -399,7 +409,7 @@ impl Effect<GapProblem> for Prnu {
         "prnu"
     }
 
-    fn param_count(&self) -> usize {
+    fn param_count(&self, _: &GapModel) -> usize {
         1
     }
 
@@ -433,7 +443,7 @@ impl Effect<GapProblem> for Prnu {
     }
 }
 
-/// `hot_pixels`: Pixels with a large excess dark signal: counts of dark-stack pixels above the tail thresholds, scored by their Poisson deviance (its variance is the model's own, so its penalty factor is 1).
+/// `hot_pixels`: Pixels with a large excess dark signal, its distribution the one seen above the tail threshold (uniform from 0 where fewer than eight are seen): counts of dark-stack pixels above the tail thresholds, scored by their Poisson deviance (its variance is the model's own, so its penalty factor is 1).
 #[derive(Debug)]
 pub struct HotPixels;
 
@@ -442,7 +452,9 @@ impl Effect<GapProblem> for HotPixels {
         "hot_pixels"
     }
 
-    fn param_count(&self) -> usize {
+    /// The fraction and the excess's scale, which the tail counts constrain; the shape of the
+    /// excess is read off the seen pixels, not fitted to the statistics.
+    fn param_count(&self, _: &GapModel) -> usize {
         2
     }
 
@@ -463,23 +475,59 @@ impl Effect<GapProblem> for HotPixels {
             return None;
         }
         let t = m.thresholds?.dark_dn;
-        let c1 = dm.above_t - ds.above_t;
-        if c1 < 1.0 {
+        let above = dm.above_t - ds.above_t;
+        if above < 1.0 {
             return None;
         }
-        // Excess uniform in 0..X DN: the pixels above T have mean excess (T + X) / 2, and a
-        // fraction (1 - T/X) of hot pixels clears T.
-        let x = (2.0 * dm.above_t_mean_dn - t).max(1.05 * t);
         let n = (m.width * m.height) as f64;
-        e.hot_pixels.enabled = true;
-        e.hot_pixels.fraction = (c1 / (n * (1.0 - t / x))).min(1.0);
-        e.hot_pixels.max_excess_e_per_s = x / (k * dm.exposure_s);
+        let per_dn = 1.0 / (k * dm.exposure_s);
+        let hp = &mut e.hot_pixels;
+        hp.enabled = true;
+        if above < noise::HotPixels::QUANTILES as f64 {
+            // Too few seen to show a shape: uniform in 0..X DN, the pixels above T having mean
+            // excess (T + X) / 2 and a fraction (1 - T/X) of hot pixels clearing T.
+            let x = (2.0 * dm.above_t_mean_dn - t).max(1.05 * t);
+            hp.fraction = (above / (n * (1.0 - t / x))).min(1.0);
+            hp.max_excess_e_per_s = x * per_dn;
+            hp.excess_quantiles_e_per_s = None;
+        } else {
+            let (fraction, quantiles_dn) = hot_excess_distribution(&dm.above_t_quantiles_dn, above, t, n)?;
+            hp.fraction = fraction;
+            hp.excess_quantiles_e_per_s = Some(quantiles_dn.map(|v| v * per_dn));
+            hp.max_excess_e_per_s = quantiles_dn[noise::HotPixels::QUANTILES - 1] * per_dn;
+        }
         checked(next)
     }
 
     fn params(&self, model: &GapModel) -> serde_json::Value {
         without_enabled(serde_json::to_value(model.sensor.effects.hot_pixels))
     }
+}
+
+/// The hot pixels' fraction and excess distribution (quantiles, DN) from the `above` pixels
+/// seen above the threshold `t` (their residuals' quantiles `seen_dn`) among `n`. Below `t`
+/// the excess is hidden in the noise; the distribution is continued there at its density just
+/// above `t` (from the lower three sevenths of the seen values), which is exact for a uniform
+/// excess and low for one that rises towards 0 (those pixels are not told from the noise).
+fn hot_excess_distribution(
+    seen_dn: &[f64; noise::HotPixels::QUANTILES],
+    above: f64,
+    t: f64,
+    n: f64,
+) -> Option<(f64, [f64; noise::HotPixels::QUANTILES])> {
+    const Q: usize = noise::HotPixels::QUANTILES;
+    let spread = seen_dn[Q - 1] - seen_dn[0];
+    // Quantized data gives tied residuals: a floor on the spacing keeps the density finite.
+    let spacing = (seen_dn[3] - seen_dn[0]).max(0.05 * spread);
+    let below = if spacing > 0.0 { (3.0 / (Q - 1) as f64 * above / spacing * t).min(n - above) } else { 0.0 };
+    let total = above + below.max(0.0);
+    let w = below.max(0.0) / total;
+    let quantiles = std::array::from_fn(|i| {
+        let p = i as f64 / (Q - 1) as f64;
+        if p <= w && w > 0.0 { p / w * t } else { noise::quantile_at(seen_dn, (p - w) / (1.0 - w)) }
+    });
+    let fraction = (total / n).min(1.0);
+    (fraction > 0.0).then_some((fraction, quantiles))
 }
 
 /// `row_column_noise`: Noise shared along rows (temporal) and columns (fixed): row variance of a dark difference frame, column variance of the dark stack.
@@ -491,7 +539,7 @@ impl Effect<GapProblem> for RowColumnNoise {
         "row_column_noise"
     }
 
-    fn param_count(&self) -> usize {
+    fn param_count(&self, _: &GapModel) -> usize {
         2
     }
 
@@ -521,54 +569,82 @@ impl Effect<GapProblem> for RowColumnNoise {
     }
 }
 
-/// `periodic_pattern`: Up to two sinusoidal fixed patterns: peaks of the dark stack's periodogram well above a white image's.
+/// `periodic_pattern`: Up to two sinusoidal fixed patterns, each with its own frequency and
+/// amplitude: peaks of the dark stack's periodogram well above a white image's.
 #[derive(Debug)]
 pub struct PeriodicPattern;
+
+/// Peaks of two periodograms closer than this in both frequencies are the same wave, cycles/px.
+const SAME_WAVE_CYCLES_PER_PX: f64 = 0.02;
+
+fn same_wave(a: (f64, f64), b: (f64, f64)) -> bool {
+    (a.0 - b.0).abs() < SAME_WAVE_CYCLES_PER_PX && (a.1 - b.1).abs() < SAME_WAVE_CYCLES_PER_PX
+}
+
+/// The waves of `pp` that are present, as ((fx, fy) cycles/px, amplitude DN).
+fn model_waves(pp: &noise::PeriodicPattern) -> Vec<((f64, f64), f64)> {
+    if !pp.enabled {
+        return Vec::new();
+    }
+    let (ax, ay) = pp.amplitudes();
+    let [x, y] = pp.waves_present();
+    let mut waves = Vec::with_capacity(2);
+    if x {
+        waves.push(((pp.freq_x_cycles_per_px, pp.wave_x_freq_y_cycles_per_px), ax));
+    }
+    if y {
+        waves.push(((pp.wave_y_freq_x_cycles_per_px, pp.freq_y_cycles_per_px), ay));
+    }
+    waves
+}
 
 impl Effect<GapProblem> for PeriodicPattern {
     fn name(&self) -> &'static str {
         "periodic_pattern"
     }
 
-    fn param_count(&self) -> usize {
-        5
+    /// Two frequencies and an amplitude per wave.
+    fn param_count(&self, model: &GapModel) -> usize {
+        3 * model_waves(&model.sensor.effects.periodic_pattern).len().max(1)
     }
 
     fn fit(&self, problem: &GapProblem, model: &GapModel, (s, _): &GapSim) -> Option<GapModel> {
         let m = &problem.ev.m;
-        let mut next = model.clone();
-        let e = &mut next.sensor.effects;
         // The waves: measured peaks standing well above the ~15 medians a white image's
-        // largest bin reaches; amplitude^2 from the excess power over the current model's.
-        let pp = e.periodic_pattern;
-        let waves: Vec<&stats::Peak> = m.peaks.iter().filter(|p| p.ratio > stats::PEAK_RATIO).collect();
-        if waves.is_empty() {
-            return None;
-        }
-        let sim_amp2 = |p: &stats::Peak| -> f64 {
-            s.peaks
+        // largest bin reaches. Each wave's amplitude^2 is the current model's plus the excess
+        // of the measured peak's power over the simulated one's at the same frequency.
+        let current = model_waves(&model.sensor.effects.periodic_pattern);
+        let power_near = |peaks: &[stats::Peak], f: (f64, f64)| -> f64 {
+            peaks
                 .iter()
-                .filter(|q| {
-                    (q.fx_cycles_per_px - p.fx_cycles_per_px).abs() < 0.02
-                        && (q.fy_cycles_per_px - p.fy_cycles_per_px).abs() < 0.02
-                })
+                .filter(|q| same_wave(f, (q.fx_cycles_per_px, q.fy_cycles_per_px)))
                 .map(|q| q.amp2_dn2)
                 .fold(0.0, f64::max)
         };
-        let cur2 = if pp.enabled { pp.amplitude_dn * pp.amplitude_dn } else { 0.0 };
-        let a2 = cur2 + waves.iter().map(|p| p.amp2_dn2 - sim_amp2(p)).sum::<f64>() / waves.len() as f64;
-        if a2 <= 0.0 {
-            return None;
-        }
-        let p = &mut e.periodic_pattern;
+        let waves: Vec<((f64, f64), f64)> = m
+            .peaks
+            .iter()
+            .filter(|p| p.ratio > stats::PEAK_RATIO)
+            .take(2)
+            .filter_map(|p| {
+                let f = (p.fx_cycles_per_px, p.fy_cycles_per_px);
+                let cur = current.iter().find(|(g, _)| same_wave(f, *g)).map_or(0.0, |(_, a)| a * a);
+                let a2 = cur + p.amp2_dn2 - power_near(&s.peaks, f);
+                (a2 > 0.0).then(|| (f, a2.sqrt()))
+            })
+            .collect();
+        let &((fx, wx), ax) = waves.first()?;
+        let mut next = model.clone();
+        let p = &mut next.sensor.effects.periodic_pattern;
         p.enabled = true;
-        p.amplitude_dn = a2.sqrt();
-        p.freq_x_cycles_per_px = waves[0].fx_cycles_per_px;
-        p.wave_x_freq_y_cycles_per_px = waves[0].fy_cycles_per_px;
+        p.amplitude_dn = ax;
+        p.freq_x_cycles_per_px = fx;
+        p.wave_x_freq_y_cycles_per_px = wx;
         // The second wave goes in the (wy, fy) slot; absent: zero frequencies, no wave.
-        let (wy, fy) = waves.get(1).map_or((0.0, 0.0), |q| (q.fx_cycles_per_px, q.fy_cycles_per_px));
+        let ((wy, fy), ay) = waves.get(1).copied().unwrap_or(((0.0, 0.0), ax));
         p.wave_y_freq_x_cycles_per_px = wy;
         p.freq_y_cycles_per_px = fy;
+        p.amplitude_y_dn = (ay != ax).then_some(ay);
         checked(next)
     }
 
@@ -586,7 +662,7 @@ impl Effect<GapProblem> for IlluminationFalloff {
         "illumination_falloff"
     }
 
-    fn param_count(&self) -> usize {
+    fn param_count(&self, _: &GapModel) -> usize {
         1
     }
 
@@ -669,8 +745,8 @@ fn response_slope(st: &Stats, group: usize, keep: &[bool]) -> Option<f64> {
 }
 
 /// Replaces the simulated dark stack's tail counts by their expectation under `model`: the
-/// Gaussian core's `n Q(T / sd)` plus the hot pixels', `n f E_u[Q((T - u) / sd)]` with the excess
-/// `u` uniform in `0..X` DN (`sd` the simulated tail residual's robust sd). One simulated
+/// Gaussian core's `n Q(T / sd)` plus the hot pixels', `n f E_u[Q((T - u) / sd)]` over the
+/// model's distribution of the excess `u` (`sd` the simulated tail residual's robust sd). One simulated
 /// realisation of a count of a few pixels is itself Poisson noise; the measured count is scored
 /// against the model's expected count instead (the entry's `count_floor`, the simulated value 0,
 /// see [`stats::count_deviance`]), so the hot-pixel evidence is its exact Poisson deviance.
@@ -679,12 +755,13 @@ fn expect_dark_tails(s: &mut Stats, model: &GapModel, t: &Thresholds) {
     let sd = ds.tail_sd_dn.max(1e-9);
     let n = (s.width * s.height) as f64;
     let hp = model.sensor.effects.hot_pixels;
-    let gain = scene_gen_camera::sensor::noise::gain_factor(s.gains_db.first().copied().unwrap_or(0.0));
-    let x_dn = hp.max_excess_e_per_s * model.sensor.system_gain_dn_per_e * gain * ds.exposure_s;
-    let f = if hp.enabled && x_dn > 0.0 { hp.fraction } else { 0.0 };
+    let gain = noise::gain_factor(s.gains_db.first().copied().unwrap_or(0.0));
+    let per_e_per_s = model.sensor.system_gain_dn_per_e * gain * ds.exposure_s;
+    let f = if hp.enabled { hp.fraction } else { 0.0 };
     let expect = |thr: f64| -> f64 {
-        // Midpoint rule over the excess, 256 nodes.
-        let hot = (0..256).map(|j| stats::normal_tail((thr - (f64::from(j) + 0.5) / 256.0 * x_dn) / sd)).sum::<f64>();
+        // Midpoint rule over the excess's probabilities, 256 nodes.
+        let excess_dn = |j: u32| hp.excess_at((f64::from(j) + 0.5) / 256.0) * per_e_per_s;
+        let hot = (0..256).map(|j| stats::normal_tail((thr - excess_dn(j)) / sd)).sum::<f64>();
         n * ((1.0 - f) * stats::normal_tail(thr / sd) + f * hot / 256.0)
     };
     for e in &mut s.entries {
@@ -1168,8 +1245,7 @@ pub fn search(
     let mut problem = GapProblem { ev, screen, refine };
     let outcome = search::greedy(&mut problem, model);
     let (initial_stats, gap_initial) = outcome.start_sim;
-    let ln_n = (gap_initial.n.max(2) as f64).ln();
-    let mut steps: Vec<Step> = outcome.accepted.iter().map(|a| step(a, ln_n)).collect();
+    let mut steps: Vec<Step> = outcome.accepted.iter().map(step).collect();
     let trials = outcome
         .trials
         .iter()
@@ -1192,7 +1268,7 @@ pub fn search(
     });
     if let Some(m) = &misfit {
         for (st, a) in steps.iter_mut().zip(&outcome.accepted) {
-            st.entangled = entangled(a, m, ln_n);
+            st.entangled = entangled(a, m);
         }
     }
     GapResult {
@@ -1213,15 +1289,14 @@ pub fn search(
 }
 
 /// [`misfit::Evidence::entangled`] for an effect the search accepted.
-fn entangled(a: &search::Accepted<GapModel, GapSim>, m: &misfit::MisfitCheck, ln_n: f64) -> Vec<&'static str> {
-    let penalty = effect(a.effect).map_or(0.0, |e| e.penalty_factor() * e.param_count() as f64 * ln_n);
+fn entangled(a: &search::Accepted<GapModel, GapSim>, m: &misfit::MisfitCheck) -> Vec<&'static str> {
     let before = misfit::Comparison::from(&a.before.1);
-    misfit::Evidence { before, accepted: misfit::Comparison::from(&a.accepted.1), penalty }.entangled(m)
+    misfit::Evidence { before, accepted: misfit::Comparison::from(&a.accepted.1), penalty: a.penalty }.entangled(m)
 }
 
 /// The report's record of an accepted effect: its parameters after polishing, the gap before
 /// and after, and the evidence (the drop against the penalty, the families that improved).
-fn step(a: &search::Accepted<GapModel, GapSim>, ln_n: f64) -> Step {
+fn step(a: &search::Accepted<GapModel, GapSim>) -> Step {
     let (g, tg) = (&a.before.1, &a.accepted.1);
     let improved: Vec<String> = g
         .families
@@ -1231,7 +1306,7 @@ fn step(a: &search::Accepted<GapModel, GapSim>, ln_n: f64) -> Step {
         .map(|(a, b)| format!("{} {:.1} -> {:.1}", a.family, a.chi2_per_dof, b.chi2_per_dof))
         .collect();
     let effect = effect(a.effect).expect("an accepted effect is one of EFFECTS");
-    let penalty = effect.penalty_factor() * effect.param_count() as f64 * ln_n;
+    let penalty = a.penalty;
     Step {
         effect: a.effect.to_string(),
         params: effect.params(&a.model),

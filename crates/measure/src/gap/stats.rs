@@ -31,6 +31,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use super::{Acquisition, Light, radius2_map};
+use scene_gen_camera::sensor::noise::HotPixels;
 pub use scene_gen_core::stats::{normal_tail, normal_tail_inverse};
 
 /// Tail thresholds, fixed from the measured data and applied to both acquisitions.
@@ -94,6 +95,9 @@ pub struct StackStats {
     pub below_t: f64,
     /// Mean residual of the pixels above `T`, DN (0 when none).
     pub above_t_mean_dn: f64,
+    /// Residuals of the pixels above `T` at probabilities `0, 1/7, ..., 1` of their
+    /// distribution, DN (all 0 when none): the measured shape of the hot pixels' excess.
+    pub above_t_quantiles_dn: [f64; HotPixels::QUANTILES],
     /// Robust standard deviation of the tail residual (profiles and periodic waves removed), DN.
     pub tail_sd_dn: f64,
 }
@@ -642,9 +646,26 @@ fn stack_stats(
             let hot: Vec<f64> = rt.iter().copied().filter(|&v| v > t).collect();
             if hot.is_empty() { 0.0 } else { mean(&hot) }
         },
+        above_t_quantiles_dn: quantiles(rt.iter().copied().filter(|&v| v > t).collect()),
         tail_sd_dn: robust_sd(&rt),
     };
     (s, img)
+}
+
+/// `values` at probabilities `0, 1/(Q-1), ..., 1`, linear between order statistics (all 0 for
+/// no values).
+fn quantiles<const Q: usize>(mut values: Vec<f64>) -> [f64; Q] {
+    if values.is_empty() {
+        return [0.0; Q];
+    }
+    values.sort_by(f64::total_cmp);
+    let last = values.len() - 1;
+    std::array::from_fn(|i| {
+        let x = i as f64 / (Q - 1) as f64 * last as f64;
+        let j = (x.floor() as usize).min(last);
+        let t = x - j as f64;
+        values[j] + t * (values[(j + 1).min(last)] - values[j])
+    })
 }
 
 /// ` at G dB` when the acquisition has several gain groups.

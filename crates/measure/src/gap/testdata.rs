@@ -32,7 +32,8 @@ pub fn single_gain_hidden() -> Vec<&'static str> {
 const WIDTH: usize = 64;
 const HEIGHT: usize = 48;
 const BITS: u32 = 12;
-const EXPOSURE_S: f64 = 0.01;
+/// Exposure of the photon-transfer steps and of the dark stack, s.
+pub const EXPOSURE_S: f64 = 0.01;
 const STEPS: usize = 12;
 const STACK_FRAMES: usize = 16;
 
@@ -78,17 +79,33 @@ pub fn random_case(seed: u64, n_effects: usize) -> HiddenCase {
                 e.saturation = noise::Saturation { enabled: true, full_well_e: fw_dn / k };
             }
             "nonlinearity" => {
+                // 4..10 % at full scale either way, bending as r, r^2 or r^3 (set 003's cubic
+                // is one form of three).
                 let a = r.random_range(0.04..0.1);
-                e.nonlinearity = noise::Nonlinearity { enabled: true, a: if r.random::<bool>() { a } else { -a } };
+                let a = if r.random::<bool>() { a } else { -a };
+                let mut terms = [0.0; 3];
+                terms[r.random_range(0..3usize)] = a;
+                let [a1, a2, a3] = terms;
+                e.nonlinearity = noise::Nonlinearity { enabled: true, a1, a2, a3 };
             }
             "dsnu" => e.dsnu = noise::Dsnu { enabled: true, std_e: r.random_range(0.8..2.0) * read },
             "prnu" => e.prnu = noise::Prnu { enabled: true, std_fraction: r.random_range(0.01..0.03) },
             "hot_pixels" => {
                 let x_dn = r.random_range(20.0..60.0) * read_dn;
+                let x_e_per_s = x_dn / k / EXPOSURE_S;
+                // Uniform in 0..X (set 003's form) or exponential with mean X / 4 (cut at its
+                // 99.5th percentile), a form with a long tail and most pixels barely hot.
+                let quantiles = r.random::<bool>().then(|| {
+                    std::array::from_fn(|i| {
+                        let p = i as f64 / (noise::HotPixels::QUANTILES - 1) as f64;
+                        -0.25 * x_e_per_s * (1.0 - 0.995 * p).ln()
+                    })
+                });
                 e.hot_pixels = noise::HotPixels {
                     enabled: true,
                     fraction: r.random_range(0.004..0.012),
-                    max_excess_e_per_s: x_dn / k / EXPOSURE_S,
+                    max_excess_e_per_s: x_e_per_s,
+                    excess_quantiles_e_per_s: quantiles,
                 };
             }
             "row_column_noise" => {
@@ -104,6 +121,8 @@ pub fn random_case(seed: u64, n_effects: usize) -> HiddenCase {
                     amplitude_dn: r.random_range(0.8..2.0) * read_dn,
                     freq_x_cycles_per_px: r.random_range(0.06..0.4),
                     freq_y_cycles_per_px: r.random_range(0.06..0.4),
+                    // Each wave has its own amplitude.
+                    amplitude_y_dn: Some(r.random_range(0.8..2.0) * read_dn),
                     ..noise::PeriodicPattern::default()
                 };
             }

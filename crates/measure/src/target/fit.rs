@@ -90,7 +90,7 @@ impl Effect<ChartProblem> for LensBlurFit {
         "lens_blur"
     }
 
-    fn param_count(&self) -> usize {
+    fn param_count(&self, _: &TargetModel) -> usize {
         1
     }
 
@@ -128,7 +128,7 @@ impl Effect<ChartProblem> for MotionBlurFit {
         "motion_blur"
     }
 
-    fn param_count(&self) -> usize {
+    fn param_count(&self, _: &TargetModel) -> usize {
         2
     }
 
@@ -168,7 +168,7 @@ impl Effect<ChartProblem> for IlluminationFalloffFit {
         "illumination_falloff"
     }
 
-    fn param_count(&self) -> usize {
+    fn param_count(&self, _: &TargetModel) -> usize {
         2
     }
 
@@ -228,7 +228,7 @@ impl Effect<ChartProblem> for PrnuFit {
         "prnu"
     }
 
-    fn param_count(&self) -> usize {
+    fn param_count(&self, _: &TargetModel) -> usize {
         1
     }
 
@@ -266,7 +266,7 @@ impl Effect<ChartProblem> for DsnuFit {
         "dsnu"
     }
 
-    fn param_count(&self) -> usize {
+    fn param_count(&self, _: &TargetModel) -> usize {
         1
     }
 

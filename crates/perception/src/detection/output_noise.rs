@@ -73,10 +73,7 @@ fn pixel_variance_dn2(model: &SensorModel, photons: f64, exposure_s: f64, gain_d
     if e.row_column_noise.enabled {
         v += e.row_column_noise.column_std_dn.powi(2);
     }
-    if e.periodic_pattern.enabled {
-        // Two sinusoids of amplitude A: A^2 / 2 each.
-        v += e.periodic_pattern.amplitude_dn.powi(2);
-    }
+    v += e.periodic_pattern.variance_dn2();
     v
 }
 
