@@ -28,7 +28,8 @@
 //! spatial statistic (residual, row- or column-profile variance of which stack), periodogram
 //! peak (its frequencies) or tail count (measured against expected pixels). The search then
 //! calls an added effect *tentative* when its evidence rests on those statistics
-//! ([`super::GapResult::tentative`]). The test-chart loop runs the same [`test()`] on its own
+//! ([`super::GapResult::tentative`]), or on a family left elevated ([`ELEVATED_SIGMAS`]) whose
+//! remaining excess is larger than what the effect took from it. The test-chart loop runs the same [`test()`] on its own
 //! statistics (`crate::target`).
 
 use rand::Rng as _;
@@ -46,6 +47,10 @@ pub const FAMILY_FALSE_ALARM: f64 = 0.01;
 
 /// A statistic is listed as a place of the misfit beyond this many of its null spreads.
 pub const LOCATE_SIGMAS: f64 = 3.0;
+
+/// A family the final model leaves this many replicate standard deviations above their mean
+/// is elevated: short of unexplained, yet not explained either.
+pub const ELEVATED_SIGMAS: f64 = 2.0;
 
 /// Families whose statistics sample one response curve: against photons or exposure (the
 /// sensor workflow's), against reflectance or signal (the test chart's patch means and
@@ -212,8 +217,43 @@ impl Evidence {
     /// the penalty. Such an effect lowered the misfit, but what it absorbed may be an effect
     /// outside the library, so it is tentative. Empty: the evidence stands on statistics the
     /// final model explains.
+    ///
+    /// A family the final model leaves elevated ([`ELEVATED_SIGMAS`]) counts the same way when
+    /// the effect's drop there is smaller than the excess the family keeps: the effect then
+    /// absorbed a part of a misfit it does not explain.
     #[must_use]
     pub fn entangled(&self, check: &MisfitCheck) -> Vec<&'static str> {
+        let unexplained = self.entangled_unexplained(check);
+        if unexplained.is_empty() { self.entangled_elevated(check) } else { unexplained }
+    }
+
+    /// Chi-square of `family` before and at acceptance.
+    fn family_drop(&self, family: &str) -> f64 {
+        let chi2 = |c: &Comparison| c.families.iter().find(|f| f.0 == family).map_or(0.0, |f| f.1);
+        chi2(&self.before) - chi2(&self.accepted)
+    }
+
+    fn entangled_elevated(&self, check: &MisfitCheck) -> Vec<&'static str> {
+        let elevated: Vec<(&'static str, f64)> = check
+            .families
+            .iter()
+            .filter(|f| !f.unexplained && f.chi2 - f.null_mean > ELEVATED_SIGMAS * f.null_sd)
+            .map(|f| (f.family, f.chi2 - f.null_mean))
+            .filter(|&(family, _)| self.family_drop(family) > 1.0)
+            .collect();
+        if elevated.is_empty() {
+            return Vec::new();
+        }
+        let total: f64 = self.before.residuals.iter().zip(&self.accepted.residuals).map(|(b, c)| b * b - c * c).sum();
+        let inside: f64 = elevated.iter().map(|&(family, _)| self.family_drop(family)).sum();
+        let absorbed = elevated.iter().all(|&(family, excess)| self.family_drop(family) < excess);
+        if total - inside > self.penalty || !absorbed {
+            return Vec::new();
+        }
+        elevated.into_iter().map(|(family, _)| family).collect()
+    }
+
+    fn entangled_unexplained(&self, check: &MisfitCheck) -> Vec<&'static str> {
         if check.unexplained.is_empty() {
             return Vec::new();
         }
@@ -452,5 +492,51 @@ mod tests {
         assert!(scaled_chi2_tail(120.0, 20, 20.0, 40.0, 8) < 1e-5);
         // A wider null (correlated statistics) makes the same value less surprising.
         assert!(scaled_chi2_tail(60.0, 20, 20.0, 400.0, 8) > scaled_chi2_tail(60.0, 20, 20.0, 40.0, 8));
+    }
+
+    /// `dark` ends 33 above its replicates' mean (sd 7.7): elevated, not unexplained.
+    fn elevated_dark_check() -> MisfitCheck {
+        let family = |family, chi2, null_mean, null_sd| FamilyNull {
+            family,
+            chi2,
+            dof: 40,
+            null_mean,
+            null_sd,
+            p_value: 0.02,
+            unexplained: false,
+        };
+        MisfitCheck {
+            replicates: 8,
+            families: vec![family("dark", 70.3, 37.4, 7.7), family("spatial", 4.9, 6.4, 3.4)],
+            unexplained: Vec::new(),
+        }
+    }
+
+    /// An evidence whose chi-square drops by `dark_drop` over two dark statistics and by
+    /// `spatial_drop` over one spatial one.
+    fn evidence(dark_drop: f64, spatial_drop: f64) -> Evidence {
+        let before =
+            Comparison { families: vec![("dark", 100.0, 2), ("spatial", 16.0, 1)], residuals: vec![7.0, 7.0, 4.0] };
+        let d = (49.0 - dark_drop / 2.0).sqrt();
+        let accepted = Comparison {
+            families: vec![("dark", 100.0 - dark_drop, 2), ("spatial", 16.0 - spatial_drop, 1)],
+            residuals: vec![d, d, (16.0 - spatial_drop).sqrt()],
+        };
+        Evidence { before, accepted, penalty: 9.1 }
+    }
+
+    #[test]
+    fn a_small_drop_in_an_elevated_family_is_entangled_with_it() {
+        let check = elevated_dark_check();
+        // 12 of its 13.6 drop in `dark`, which keeps an excess of 33: tentative.
+        assert_eq!(evidence(12.0, 1.6).entangled(&check), ["dark"]);
+        // A drop larger than the excess the family keeps is evidence of its own.
+        assert!(evidence(40.0, 1.6).entangled(&check).is_empty());
+        // So is one that pays the penalty outside the elevated family.
+        assert!(evidence(12.0, 10.0).entangled(&check).is_empty());
+        // Nothing elevated: nothing entangled.
+        let mut calm = check.clone();
+        calm.families[0].chi2 = 40.0;
+        assert!(evidence(12.0, 1.6).entangled(&calm).is_empty());
     }
 }

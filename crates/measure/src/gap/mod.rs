@@ -576,7 +576,7 @@ pub struct Step {
     /// Drop of the total chi-square, the BIC penalty it had to beat, and the families that
     /// improved.
     pub evidence: String,
-    /// The families left unexplained at the end ([`misfit`]) that the effect's evidence rests
+    /// The families left unexplained (or elevated) at the end ([`misfit`]) that the effect's evidence rests
     /// on: it may stand in for what the library lacks, so it is reported as tentative, not
     /// named.
     pub entangled: Vec<&'static str>,
