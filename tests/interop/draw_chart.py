@@ -105,6 +105,21 @@ def cos4(layout, half_angle_deg=None):
     return (1.0 / (1.0 + tan2)) ** 2
 
 
+def optics(signal, layout, falloff=None, lens=None, motion=None):
+    """`signal` through an extra cos^4 fall-off reaching `falloff` degrees at the corners, a
+    Gaussian PSF of sigma `lens` px (`cv2.GaussianBlur`) and a horizontal line PSF `motion` px
+    long (`cv2.filter2D`), each where given."""
+    if falloff is not None:
+        signal = signal * cos4(layout, falloff)
+    if lens is not None:
+        signal = cv2.GaussianBlur(signal, (0, 0), lens, borderType=cv2.BORDER_REPLICATE)
+    if motion is not None:
+        k = np.zeros((motion, motion), np.float64)
+        k[motion // 2, :] = 1.0 / motion
+        signal = cv2.filter2D(signal, -1, k, borderType=cv2.BORDER_REPLICATE)
+    return signal
+
+
 def main() -> int:
     ap = argparse.ArgumentParser()
     ap.add_argument("layout")
@@ -117,7 +132,12 @@ def main() -> int:
     ap.add_argument("--gamma", type=float, help="tone curve exponent on the output above black")
     a = ap.parse_args()
 
-    layout = json.load(open(a.layout))
+    try:
+        with open(a.layout) as f:
+            layout = json.load(f)
+    except (OSError, ValueError) as e:
+        print(f"draw_chart: {a.layout}: cannot read the layout: {e}", file=sys.stderr)
+        return 2
     rec = layout.get("sensor_record")
     if not rec or not layout.get("texture_reflectances"):
         print(f"draw_chart: {a.layout}: no sensor_record or texture_reflectances (written by an older scene-gen?)",
@@ -126,14 +146,7 @@ def main() -> int:
     signal = rec["signal_e_per_reflectance"] * reflectance(layout)
     if rec["cos4_vignetting"]:
         signal *= cos4(layout)
-    if a.falloff is not None:
-        signal *= cos4(layout, a.falloff)
-    if a.lens is not None:
-        signal = cv2.GaussianBlur(signal, (0, 0), a.lens, borderType=cv2.BORDER_REPLICATE)
-    if a.motion is not None:
-        k = np.zeros((a.motion, a.motion), np.float64)
-        k[a.motion // 2, :] = 1.0 / a.motion
-        signal = cv2.filter2D(signal, -1, k, borderType=cv2.BORDER_REPLICATE)
+    signal = optics(signal, layout, a.falloff, a.lens, a.motion)
     if a.sharpen is not None:
         signal = signal + a.sharpen * (signal - cv2.GaussianBlur(signal, (0, 0), 1.0, borderType=cv2.BORDER_REPLICATE))
         signal = np.maximum(signal, 0.0)

@@ -23,6 +23,9 @@ import sys
 import cv2
 import numpy as np
 
+# The chart drawer's optics, so both ways of making a test photograph blur and shade alike.
+from draw_chart import optics
+
 
 def main() -> int:
     ap = argparse.ArgumentParser()
@@ -47,19 +50,7 @@ def main() -> int:
     max_dn = 2 ** layout["bits"] - 1
     signal = mean - black
 
-    out = signal.copy()
-    if a.falloff is not None:
-        h, w = out.shape
-        yy, xx = np.mgrid[0:h, 0:w]
-        r = np.hypot(xx + 0.5 - w / 2, yy + 0.5 - h / 2) / np.hypot(w / 2, h / 2)
-        field = np.arctan(r * np.tan(np.radians(a.falloff)))
-        out = out * np.cos(field) ** 4
-    if a.lens is not None:
-        out = cv2.GaussianBlur(out, (0, 0), a.lens, borderType=cv2.BORDER_REPLICATE)
-    if a.motion is not None:
-        k = np.zeros((a.motion, a.motion), np.float64)
-        k[a.motion // 2, :] = 1.0 / a.motion
-        out = cv2.filter2D(out, -1, k, borderType=cv2.BORDER_REPLICATE)
+    out = optics(signal, layout, a.falloff, a.lens, a.motion)
 
     noise = noisy - mean
     # Photon transfer of the render: noise variance against signal over 24 signal quantiles,

@@ -31,7 +31,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use super::{Acquisition, Light, radius2_map};
-use scene_gen_camera::sensor::noise::HotPixels;
+use scene_gen_camera::sensor::noise::{self, HotPixels};
 pub use scene_gen_core::stats::{normal_tail, normal_tail_inverse};
 
 /// Tail thresholds, fixed from the measured data and applied to both acquisitions.
@@ -631,6 +631,9 @@ fn stack_stats(
     let rt = remove_waves(&r, w, h, waves);
     let kept: Vec<f64> = r.iter().zip(&rt).filter(|(_, t2)| t2.abs() <= t).map(|(v, _)| *v).collect();
     let count = |f: &dyn Fn(f64) -> bool| rt.iter().filter(|&&v| f(v)).count() as f64;
+    let mut hot: Vec<f64> = rt.iter().copied().filter(|&v| v > t).collect();
+    let hot_mean_dn = if hot.is_empty() { 0.0 } else { mean(&hot) };
+    hot.sort_by(f64::total_cmp);
     let s = StackStats {
         frames,
         exposure_s,
@@ -639,33 +642,18 @@ fn stack_stats(
         resid_var_dn2: if kept.len() > 1 { var(&kept) } else { 0.0 },
         row_var_dn2: var(&rm),
         col_var_dn2: var(&cm),
-        above_t: count(&|v| v > t),
+        above_t: hot.len() as f64,
         above_3t: count(&|v| v > 3.0 * t),
         below_t: count(&|v| v < -t),
-        above_t_mean_dn: {
-            let hot: Vec<f64> = rt.iter().copied().filter(|&v| v > t).collect();
-            if hot.is_empty() { 0.0 } else { mean(&hot) }
+        above_t_mean_dn: hot_mean_dn,
+        above_t_quantiles_dn: if hot.is_empty() {
+            [0.0; HotPixels::QUANTILES]
+        } else {
+            std::array::from_fn(|i| noise::quantile_at(&hot, i as f64 / (HotPixels::QUANTILES - 1) as f64))
         },
-        above_t_quantiles_dn: quantiles(rt.iter().copied().filter(|&v| v > t).collect()),
         tail_sd_dn: robust_sd(&rt),
     };
     (s, img)
-}
-
-/// `values` at probabilities `0, 1/(Q-1), ..., 1`, linear between order statistics (all 0 for
-/// no values).
-fn quantiles<const Q: usize>(mut values: Vec<f64>) -> [f64; Q] {
-    if values.is_empty() {
-        return [0.0; Q];
-    }
-    values.sort_by(f64::total_cmp);
-    let last = values.len() - 1;
-    std::array::from_fn(|i| {
-        let x = i as f64 / (Q - 1) as f64 * last as f64;
-        let j = (x.floor() as usize).min(last);
-        let t = x - j as f64;
-        values[j] + t * (values[(j + 1).min(last)] - values[j])
-    })
 }
 
 /// ` at G dB` when the acquisition has several gain groups.
