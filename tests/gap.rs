@@ -100,6 +100,55 @@ fn hidden_effects_are_named_and_the_gap_shrinks() {
     );
 }
 
+/// A temporal pair drawn from its pixels' moments keeps only its statistics
+/// ([`gap::Block::pair`]), drawn from row and column sums. Over 300 seeds they follow the
+/// distribution of the same pair drawn pixel by pixel: for every step and dark pair, the
+/// mean and the temporal variance agree within their sampling error, their spreads over the
+/// seeds within a quarter, and so do the sampling variances the gap divides by.
+#[test]
+fn pair_sums_follow_the_pixels_they_summarise() {
+    let mut model = testdata::random_case(11, 2).model;
+    let e = &mut model.sensor.effects;
+    (e.black_level.enabled, e.black_level.offset_dn) = (true, 20.0);
+    (e.prnu.enabled, e.prnu.std_fraction) = (true, 0.01);
+    (e.dsnu.enabled, e.dsnu.std_e) = (true, 3.0);
+    let mut layout = testdata::layout(&model);
+    (layout.width, layout.height) = (64, 48);
+    let t = stats::Thresholds { dark_dn: f64::INFINITY, bright_dn: f64::INFINITY };
+    let families = ["linearity", "photon_transfer", "dark"];
+    let draw = |draws: gap::Draws, seed: u64| {
+        let sim = gap::simulate_rows(&model, &layout, seed, None, layout.height, &vec![draws; layout.blocks.len()]);
+        let summarised = sim.blocks.iter().filter(|b| b.pair.is_some()).count();
+        let s = stats::compute(&sim, &t);
+        let entries: Vec<(f64, f64)> =
+            s.entries.iter().filter(|e| families.contains(&e.family)).map(|e| (e.value, e.var)).collect();
+        (summarised, entries)
+    };
+    let runs = 300u64;
+    let (mut sums, mut pixels) = (Vec::new(), Vec::new());
+    for seed in 0..runs {
+        let (summarised, entries) = draw(gap::Draws::Moments, seed);
+        assert!(summarised >= 10, "only {summarised} pairs summarised");
+        sums.push(entries);
+        pixels.push(draw(gap::Draws::Pixels, 1000 + seed).1);
+    }
+    let moments = |runs: &[Vec<(f64, f64)>], j: usize| {
+        let n = runs.len() as f64;
+        let mean = runs.iter().map(|r| r[j].0).sum::<f64>() / n;
+        let var = runs.iter().map(|r| (r[j].0 - mean).powi(2)).sum::<f64>() / (n - 1.0);
+        let sampling_var = runs.iter().map(|r| r[j].1).sum::<f64>() / n;
+        (mean, var, sampling_var)
+    };
+    for j in 0..sums[0].len() {
+        let ((ms, vs, ss), (mp, vp, sp)) = (moments(&sums, j), moments(&pixels, j));
+        let z = (ms - mp) / ((vs + vp) / runs as f64).sqrt();
+        assert!(z.abs() < 4.5, "entry {j}: mean {ms} against {mp} ({z:.1} sigma)");
+        let spread = (vs / vp).sqrt();
+        assert!((0.75..1.33).contains(&spread), "entry {j}: spread ratio {spread}");
+        assert!((0.8..1.25).contains(&(ss / sp)), "entry {j}: sampling variance {ss} against {sp}");
+    }
+}
+
 /// On a frame of 240 rows (the smallest the search draws from moments) the moment draws name
 /// what pixel-by-pixel draws name: the hidden black level and hot pixels of case 11, from data
 /// drawn pixel by pixel. Its dark frames clear 0 DN, so its dark blocks are drawn from moments

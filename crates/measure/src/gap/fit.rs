@@ -11,7 +11,9 @@ use super::stats::{self, Gap, Stats, Thresholds};
 use super::{Acquisition, Block, Draws, GapModel, GapOptions, GapResult, Light, Step, Trial, simulate_rows};
 use crate::least_squares;
 use crate::search::{self, Effect, Problem};
+use rayon::prelude::*;
 use scene_gen_camera::sensor::{SensorModel, noise};
+use std::sync::{Mutex, MutexGuard, PoisonError};
 
 /// Factor on the BIC penalty of an effect whose evidence is a tail count (`hot_pixels`): its
 /// statistics are Poisson counts scored by their likelihood deviance
@@ -775,6 +777,12 @@ fn expect_dark_tails(s: &mut Stats, model: &GapModel, t: &Thresholds) {
     }
 }
 
+/// The value behind a lock of the evaluator's caches (a panic while one was held leaves
+/// nothing half-written: entries are inserted whole).
+fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(PoisonError::into_inner)
+}
+
 /// Evaluates models against one measured acquisition.
 struct Evaluator {
     /// The acquisition layout (frame counts, exposures, photons, gain groups); its gains are
@@ -793,9 +801,9 @@ struct Evaluator {
     /// results: the search re-evaluates unchanged models (the start model after a gain refit
     /// that changed nothing, a polish proposal equal to the current model), and a simulation is
     /// deterministic, so a repeat is a lookup.
-    cache: std::cell::RefCell<Vec<EvalEntry>>,
+    cache: Mutex<Vec<EvalEntry>>,
     /// Full simulations run and evaluations answered from the cache.
-    counts: std::cell::Cell<(usize, usize)>,
+    counts: Mutex<(usize, usize)>,
 }
 
 /// A cached evaluation: model, group gains (dB), statistics and gap.
@@ -811,18 +819,15 @@ impl Evaluator {
     }
 
     fn eval(&self, model: &GapModel) -> (Stats, Gap) {
-        let hit = self
-            .cache
-            .borrow()
+        let hit = lock(&self.cache)
             .iter()
             .find(|(m, g, _, _)| m == model && *g == self.layout.gains_db)
             .map(|(_, _, s, g)| (s.clone(), g.clone()));
-        let (sims, hits) = self.counts.get();
         if let Some(r) = hit {
-            self.counts.set((sims, hits + 1));
+            lock(&self.counts).1 += 1;
             return r;
         }
-        self.counts.set((sims + 1, hits));
+        lock(&self.counts).0 += 1;
         let sim = self.simulate(model, self.seed, None);
         let mut s = stats::compute(&sim, &self.t);
         drop(sim);
@@ -832,7 +837,7 @@ impl Evaluator {
         }
         s.thresholds = Some(self.t);
         let g = stats::gap(&self.m, &s);
-        let mut cache = self.cache.borrow_mut();
+        let mut cache = lock(&self.cache);
         cache.insert(0, (model.clone(), self.layout.gains_db.clone(), s.clone(), g.clone()));
         cache.truncate(EVAL_CACHE);
         (s, g)
@@ -989,7 +994,7 @@ pub const SCREEN_KEEP: usize = 3;
 struct Screen {
     rows: usize,
     m: Stats,
-    cache: std::cell::RefCell<Vec<(GapModel, Vec<f64>, f64)>>,
+    cache: Mutex<Vec<(GapModel, Vec<f64>, f64)>>,
 }
 
 impl Screen {
@@ -1003,7 +1008,7 @@ impl Screen {
 
     /// Total chi-square of `model` on the window.
     fn chi2(&self, ev: &Evaluator, model: &GapModel) -> f64 {
-        if let Some((_, _, c)) = self.cache.borrow().iter().find(|(m, g, _)| m == model && *g == ev.layout.gains_db) {
+        if let Some((_, _, c)) = lock(&self.cache).iter().find(|(m, g, _)| m == model && *g == ev.layout.gains_db) {
             return *c;
         }
         let sim = simulate_rows(model, &ev.layout, ev.seed, None, self.rows, &ev.draws);
@@ -1011,7 +1016,7 @@ impl Screen {
         expect_dark_tails(&mut s, model, &ev.t);
         s.thresholds = Some(ev.t);
         let c = stats::gap(&self.m, &s).chi2_total;
-        let mut cache = self.cache.borrow_mut();
+        let mut cache = lock(&self.cache);
         cache.insert(0, (model.clone(), ev.layout.gains_db.clone(), c));
         cache.truncate(2);
         c
@@ -1078,11 +1083,12 @@ impl Problem for GapProblem {
     }
 
     /// Ranks a round's proposals by their drop on the top rows when there are more than
-    /// [`SCREEN_KEEP`] of them.
+    /// [`SCREEN_KEEP`] of them. The proposals are simulated side by side: each simulation
+    /// runs its rows in parallel, but its statistics and set-up leave cores idle.
     fn screen(&self, model: &GapModel, proposals: &[GapModel]) -> Option<(Vec<f64>, usize)> {
         let sc = self.screen.as_ref().filter(|_| proposals.len() > SCREEN_KEEP)?;
         let base = sc.chi2(&self.ev, model);
-        Some((proposals.iter().map(|p| base - sc.chi2(&self.ev, p)).collect(), SCREEN_KEEP))
+        Some((proposals.par_iter().map(|p| base - sc.chi2(&self.ev, p)).collect(), SCREEN_KEEP))
     }
 
     /// Refits the responsivity and the linear model (with `refine`), the group gains and every
@@ -1090,10 +1096,10 @@ impl Problem for GapProblem {
     /// chi-square, until a pass gains less than 1 (closed forms are only approximate where frames
     /// clip at 0 DN or at the ADC limit).
     fn polish(&mut self, _: &[&'static str], model: GapModel, sim: GapSim) -> (GapModel, GapSim) {
-        let simulations_before = self.ev.counts.get().0;
+        let simulations_before = lock(&self.ev.counts).0;
         let polished =
             if self.screen.is_some() { self.polish_screened(model, sim) } else { self.polish_full(model, sim) };
-        log::debug!("polish: {} full simulations", self.ev.counts.get().0 - simulations_before);
+        log::debug!("polish: {} full simulations", lock(&self.ev.counts).0 - simulations_before);
         polished
     }
 }
@@ -1261,9 +1267,11 @@ pub fn search(
     let (final_stats, gap_final) = outcome.sim;
     let ev = problem.ev;
     let gains_db = ev.layout.gains_db.clone();
-    let (simulations, cached_evaluations) = ev.counts.get();
+    let (simulations, cached_evaluations) = *lock(&ev.counts);
     let misfit = (options.replicates > 0).then(|| {
-        let replicates: Vec<Stats> = (0..options.replicates).map(|i| ev.replicate(&outcome.model, i)).collect();
+        // Side by side, as the screened candidates (`GapProblem::screen`).
+        let replicates: Vec<Stats> =
+            (0..options.replicates).into_par_iter().map(|i| ev.replicate(&outcome.model, i)).collect();
         misfit::check(&ev.m, &final_stats, &gap_final, &replicates)
     });
     if let Some(m) = &misfit {

@@ -47,8 +47,10 @@
 //! more the search draws each pixel from its output's mean and variance ([`Draws::Moments`],
 //! [`FrameSimulator::row_moments`]: shot, read and post-gain noise through the nonlinearity,
 //! with the bias and variance that rounding to whole DN adds summed exactly where the noise is
-//! too fine for Sheppard's correction) and a spatial stack as its mean image, one draw per
-//! pixel. Blocks whose measurement touches 0 DN or the ADC's top, and rows near the full well,
+//! too fine for Sheppard's correction), a spatial stack as its mean image, one draw per pixel,
+//! and a temporal pair as its statistics alone, drawn from its rows' and columns' sums of
+//! those moments (`moment_pair`; the two pairs whose neighbour correlation is read keep their
+//! pixels). Blocks whose measurement touches 0 DN or the ADC's top, and rows near the full well,
 //! are drawn pixel by pixel as the hidden-effect sets are made ([`Draws::Pixels`],
 //! [`block_draws`]). The statistics use FFTs ([`stats::periodogram_2d`]), separable wave
 //! tables and run their pairs and stacks in parallel; the search keeps its last evaluations
@@ -173,13 +175,16 @@ pub struct Block {
     /// The mean image of a spatial stack whose simulation drew it directly ([`Draws::Moments`]);
     /// `frames` then holds as many empty frames as the stack has.
     pub average: Option<Vec<f64>>,
+    /// The statistics of a temporal pair whose simulation drew them from its pixels' moments
+    /// ([`Draws::Moments`]); `frames` then holds two empty frames.
+    pub pair: Option<stats::PairStats>,
 }
 
 impl Block {
     /// A block of `frames` empty frames: the layout of a measurement, without its pixels.
     #[must_use]
     pub fn layout(light: Light, exposure_s: f64, group: usize, frames: usize) -> Block {
-        Block { light, exposure_s, group, frames: vec![Vec::new(); frames], average: None }
+        Block { light, exposure_s, group, frames: vec![Vec::new(); frames], average: None, pair: None }
     }
 
     /// The mean image of the block's frames.
@@ -226,7 +231,7 @@ pub fn load_acquisition(path: &Path, options: &GapOptions) -> Result<Acquisition
         let take = if pair { 2 } else { options.max_stack_frames.unwrap_or(usize::MAX).max(2) };
         let frames =
             b.images.iter().take(take).map(|p| emva::load_image(p, w, h, bits)).collect::<Result<Vec<_>, _>>()?;
-        blocks.push(Block { light, exposure_s: b.exposure_s(), group: 0, frames, average: None });
+        blocks.push(Block { light, exposure_s: b.exposure_s(), group: 0, frames, average: None, pair: None });
     }
     Ok(Acquisition { width: w as usize, height: h as usize, bits, blocks, gains_db: vec![0.0] })
 }
@@ -304,7 +309,10 @@ pub enum Draws {
     /// describe it ([`FrameSimulator::row_moments`]: below the full well, and the bias and
     /// variance that rounding and the ADC's ends add summed exactly where they matter); other
     /// rows as [`Draws::Pixels`]. A spatial stack is drawn as its mean image, one draw per
-    /// pixel, since its statistics read nothing else. The statistics of a block are sums over
+    /// pixel, since its statistics read nothing else; a temporal pair whose every row they
+    /// describe is drawn as its statistics alone ([`Block::pair`]), from the sums of its
+    /// pixels' moments over rows and columns, but for the two pairs whose pixels
+    /// [`stats::correlation_pairs`] reads. The statistics of a block are sums over
     /// its pixels, which see no difference between the two, and a moment draw costs a fraction
     /// of a Poisson draw and a stack of L frames `1 / L` of them. Every row drawn from moments
     /// draws the same normal deviates whatever the model, so candidates keep their common
@@ -384,6 +392,8 @@ pub fn simulate_rows(
     };
     // The per-pixel constants of the moments, from the first block drawn by them.
     let constants = std::sync::OnceLock::new();
+    // Pairs whose pixels the statistics read, not only their sums.
+    let read_frames = stats::correlation_pairs(layout);
     let blocks = layout
         .blocks
         .iter()
@@ -404,17 +414,19 @@ pub fn simulate_rows(
                         dn.into_iter().map(f32::from).collect()
                     })
                     .collect();
-                return Block { light, exposure_s, group, frames, average: None };
+                return Block { frames, ..Block::layout(light, exposure_s, group, 0) };
             }
             let sims: Vec<FrameSimulator> =
                 seeds.iter().map(|&s| sensor.frame_simulator(&pattern, exposure_s, gain_db, s)).collect();
             let constants = constants.get_or_init(|| sims[0].pixel_constants());
+            let moments = BlockMoments::of(&sims[0], constants, &photons, w);
+            let layout = Block::layout(light, exposure_s, group, sims.len());
             if sims.len() > 2 {
-                let average = moment_stack(&sims, constants, &photons, seeds[0], w);
-                Block { average: Some(average), ..Block::layout(light, exposure_s, group, sims.len()) }
+                Block { average: Some(moment_stack(&sims, &moments, &photons, seeds[0], w)), ..layout }
+            } else if !read_frames.contains(&Some(bi)) && moments.described.iter().all(|&d| d) {
+                Block { pair: Some(moment_pair(&sims[0], &moments, seeds[0], w)), ..layout }
             } else {
-                let frames = moment_frames(&sims, constants, &photons, &seeds, w);
-                Block { light, exposure_s, group, frames, average: None }
+                Block { frames: moment_frames(&sims, &moments, &photons, &seeds, w), ..layout }
             }
         })
         .collect();
@@ -478,12 +490,11 @@ impl BlockMoments {
 /// `rng::substream(seeds[f], "gap/moments", r)` (its row offset, then its pixels).
 fn moment_frames(
     sims: &[FrameSimulator],
-    constants: &PixelConstants,
+    moments: &BlockMoments,
     photons: &[f32],
     seeds: &[u64],
     w: usize,
 ) -> Vec<Vec<f32>> {
-    let moments = BlockMoments::of(&sims[0], constants, photons, w);
     sims.iter()
         .zip(seeds)
         .map(|(sim, &seed)| {
@@ -509,9 +520,8 @@ fn moment_frames(
 /// describe from the mean and variance of an average of L frames (the row offset averaged
 /// too), from `rng::substream(seed, "gap/moments-stack", r)`; other rows as the average of
 /// their L frames drawn pixel by pixel.
-fn moment_stack(sims: &[FrameSimulator], constants: &PixelConstants, photons: &[f32], seed: u64, w: usize) -> Vec<f64> {
+fn moment_stack(sims: &[FrameSimulator], moments: &BlockMoments, photons: &[f32], seed: u64, w: usize) -> Vec<f64> {
     let l = sims.len() as f64;
-    let moments = BlockMoments::of(&sims[0], constants, photons, w);
     let mut out = vec![0f64; photons.len()];
     out.par_chunks_mut(w.max(1)).zip(photons.par_chunks(w.max(1))).enumerate().for_each(|(r, (row, ph))| {
         if moments.described[r] {
@@ -533,8 +543,66 @@ fn moment_stack(sims: &[FrameSimulator], constants: &PixelConstants, photons: &[
     out
 }
 
+/// The statistics of a temporal pair drawn by [`Draws::Moments`], every row of it described by
+/// its moments, without drawing its pixels: what [`stats`] reads of a pair are its row and
+/// column means and its sums of squares, and with each pixel Gaussian about its moments these
+/// are drawn directly. Per row, from `rng::substream(seed, "gap/moment-pair", 0)` in row
+/// order: the two frames' row offsets, the noise of the row's sum of the average and of the
+/// difference (Gaussian, of variance `sum v / 2` and `sum v`), and the spread of the
+/// difference about its row mean (`sum v (1 - 1 / w)`, variance `2 sum v^2`: a sum of `w`
+/// weighted chi-squares, Gaussian to `O(w^-1/2)`); then the noise of each column's mean. The
+/// sums of squares of the average and the fourth moment of the difference, which only size
+/// sampling variances, are their expectations. A row's draws are the same whatever the
+/// model, so candidates keep their common random numbers.
+fn moment_pair(sim: &FrameSimulator, moments: &BlockMoments, seed: u64, w: usize) -> stats::PairStats {
+    let w = w.max(1);
+    let (wf, h) = (w as f64, moments.mean.len() / w);
+    // Per row: sum of the means, their sum of squares about the row's mean, sum of the
+    // variances and of their squares.
+    let rows: Vec<[f64; 4]> = moments
+        .mean
+        .par_chunks(w)
+        .zip(moments.sd.par_chunks(w))
+        .map(|(m, sd)| {
+            let sum_m: f64 = m.iter().sum();
+            let row_mean = sum_m / wf;
+            let ss_m = m.iter().map(|x| (x - row_mean) * (x - row_mean)).sum();
+            let (sum_v, sum_v2) = sd.iter().fold((0.0, 0.0), |(a, b), s| (a + s * s, b + s.powi(4)));
+            [sum_m, ss_m, sum_v, sum_v2]
+        })
+        .collect();
+    let (mut col_m, mut col_v) = (vec![0.0; w], vec![0.0; w]);
+    for (m, sd) in moments.mean.chunks(w).zip(moments.sd.chunks(w)) {
+        col_m.iter_mut().zip(m).for_each(|(c, x)| *c += x);
+        col_v.iter_mut().zip(sd).for_each(|(c, s)| *c += s * s);
+    }
+    let mut rng = rng::substream(seed, "gap/moment-pair", 0);
+    let mut z = || standard_normal(&mut rng);
+    let row_sd = sim.row_offset_sd_dn();
+    let (mut row_avg, mut row_diff, mut spread) = (Vec::with_capacity(h), Vec::with_capacity(h), Vec::with_capacity(h));
+    let mut offsets = 0.0;
+    for &[sum_m, _, sum_v, sum_v2] in &rows {
+        let (o1, o2) = (row_sd * z(), row_sd * z());
+        offsets += 0.5 * (o1 + o2);
+        row_avg.push((sum_m + (0.5 * sum_v).sqrt() * z()) / wf + 0.5 * (o1 + o2));
+        row_diff.push((o1 - o2) / std::f64::consts::SQRT_2 + sum_v.sqrt() * z() / wf);
+        spread.push((sum_v * (1.0 - 1.0 / wf) + (2.0 * sum_v2).sqrt() * z()).max(0.0));
+    }
+    let col_avg = col_m.iter().zip(&col_v).map(|(m, v)| (m + offsets + (0.5 * v).sqrt() * z()) / h as f64).collect();
+    let (m, md) = (stats::mean(&row_avg), stats::mean(&row_diff));
+    let (mut s2a, mut s2d, mut s4d) = (0.0, 0.0, 0.0);
+    for (((&[_, ss_m, sum_v, sum_v2], a), d), q) in rows.iter().zip(&row_avg).zip(&row_diff).zip(&spread) {
+        let delta = d - md;
+        s2a += ss_m + 0.5 * sum_v * (1.0 - 1.0 / wf) + wf * (a - m) * (a - m);
+        s2d += q + wf * delta * delta;
+        s4d += 3.0 * sum_v2 + 6.0 * sum_v * delta * delta + wf * delta.powi(4);
+    }
+    stats::PairSums { row_avg, row_diff, col_avg, s2a, s2d, s4d }.finish()
+}
+
 impl Acquisition {
-    /// The first `rows` rows of every frame (the sensor window [`simulate_rows`] simulates).
+    /// The first `rows` rows of every frame (the sensor window [`simulate_rows`] simulates) of an
+    /// acquisition that holds its pixels (a measurement).
     #[must_use]
     pub fn top_rows(&self, rows: usize) -> Acquisition {
         let h = rows.min(self.height);
@@ -547,6 +615,8 @@ impl Acquisition {
                 group: b.group,
                 frames: b.frames.iter().map(|f| f[..(self.width * h).min(f.len())].to_vec()).collect(),
                 average: b.average.as_ref().map(|a| a[..(self.width * h).min(a.len())].to_vec()),
+                // Sums of the whole frame cannot be cut to its top rows.
+                pair: None,
             })
             .collect();
         Acquisition { width: self.width, height: h, bits: self.bits, blocks, gains_db: self.gains_db.clone() }

@@ -309,7 +309,6 @@ pub fn average(frames: &[Vec<f32>]) -> Vec<f64> {
 /// The statistics of a temporal pair, in two passes over its pixels without copies: the
 /// row and column sums, then the central moments.
 fn pair_stats(a: &[f32], b: &[f32], w: usize, h: usize) -> PairStats {
-    let n = a.len() as f64;
     let pixel = |x: f32, y: f32| {
         let (x, y) = (f64::from(x), f64::from(y));
         (0.5 * (x + y), (x - y) / std::f64::consts::SQRT_2)
@@ -337,16 +336,53 @@ fn pair_stats(a: &[f32], b: &[f32], w: usize, h: usize) -> PairStats {
         s2d += ed;
         s4d += ed * ed;
     }
-    let dof = (n - 1.0).max(1.0);
-    // Variance of the frame mean: white, row-correlated or column-correlated patterns; the
-    // profiles' variances from successive differences, so smooth shading (a deterministic
-    // fall-off, not a sampling error) does not count.
-    let mean_var = (s2a / dof / n).max(diff_var(&row_avg) / h as f64).max(diff_var(&col_avg) / w as f64);
-    PairStats { mean_dn: m, var_dn2: s2d / dof, mean_var, diff_row_var_dn2: var(&row_diff), m4: s4d / n }
+    PairSums { row_avg, row_diff, col_avg, s2a, s2d, s4d }.finish()
 }
 
-/// What [`pair_stats`] measures of a temporal pair.
-struct PairStats {
+/// The sums a temporal pair's statistics are finished from ([`PairSums::finish`]), whether
+/// read off its pixels ([`pair_stats`]) or drawn from its pixels' moments by a simulation
+/// (`gap::moment_pair`).
+pub(super) struct PairSums {
+    /// Row means of the pair average `(A + B) / 2`.
+    pub row_avg: Vec<f64>,
+    /// Row means of the difference `(A - B) / sqrt 2`.
+    pub row_diff: Vec<f64>,
+    /// Column means of the pair average.
+    pub col_avg: Vec<f64>,
+    /// Sum of squares of the average about its mean (the mean of `row_avg`).
+    pub s2a: f64,
+    /// Sum of squares of the difference about its mean (the mean of `row_diff`).
+    pub s2d: f64,
+    /// Sum of fourth powers of the difference about its mean.
+    pub s4d: f64,
+}
+
+impl PairSums {
+    pub(super) fn finish(self) -> PairStats {
+        let (w, h) = (self.col_avg.len(), self.row_avg.len());
+        let n = (w * h) as f64;
+        let dof = (n - 1.0).max(1.0);
+        // Variance of the frame mean: white, row-correlated or column-correlated patterns; the
+        // profiles' variances from successive differences, so smooth shading (a deterministic
+        // fall-off, not a sampling error) does not count.
+        let mean_var =
+            (self.s2a / dof / n).max(diff_var(&self.row_avg) / h as f64).max(diff_var(&self.col_avg) / w as f64);
+        PairStats {
+            mean_dn: mean(&self.row_avg),
+            var_dn2: self.s2d / dof,
+            mean_var,
+            diff_row_var_dn2: var(&self.row_diff),
+            m4: self.s4d / n,
+        }
+    }
+}
+
+/// What the statistics read of a temporal pair: its mean, temporal variance, the sampling
+/// variance of its mean, and the row-profile variance and fourth moment of its difference. A
+/// simulation that draws a pair from its pixels' moments keeps only these
+/// ([`super::Block::pair`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct PairStats {
     mean_dn: f64,
     /// Temporal variance, `var((A - B) / sqrt 2)`.
     var_dn2: f64,
@@ -681,7 +717,10 @@ pub fn compute(acq: &Acquisition, t: &Thresholds) -> Stats {
         || -> Vec<Option<PairStats>> {
             acq.blocks
                 .par_iter()
-                .map(|b| (b.frames.len() == 2).then(|| pair_stats(&b.frames[0], &b.frames[1], w, h)))
+                .map(|b| {
+                    (b.frames.len() == 2)
+                        .then(|| b.pair.clone().unwrap_or_else(|| pair_stats(&b.frames[0], &b.frames[1], w, h)))
+                })
                 .collect()
         },
         || {
@@ -872,17 +911,25 @@ pub fn compute(acq: &Acquisition, t: &Thresholds) -> Stats {
     }
 }
 
+/// The pairs whose pixels the `correlation` entries read, by the layout alone: the first dark
+/// pair of the reference gain and its middle bright pair in photons. A simulation draws these
+/// two pairs pixel for pixel; the statistics of the others are sums ([`PairStats`]).
+#[must_use]
+pub fn correlation_pairs(acq: &Acquisition) -> [Option<usize>; 2] {
+    let pairs = || acq.blocks.iter().enumerate().filter(|(_, b)| b.group == 0 && b.frames.len() == 2);
+    let dark = pairs().find(|(_, b)| b.light == Light::Dark).map(|(i, _)| i);
+    let mut bright: Vec<_> = pairs().filter(|(_, b)| b.light != Light::Dark).collect();
+    bright.sort_by(|(_, a), (_, b)| a.light.photons().total_cmp(&b.light.photons()));
+    [dark, bright.get(bright.len() / 2).map(|(i, _)| *i)]
+}
+
 /// The `correlation` entries: neighbour correlations of the temporal noise (see
 /// [`neighbour_correlation`]) of the first dark pair of the reference gain and of its middle
 /// bright pair in photons (chosen by the layout alone, so measured and simulated entries are
 /// the same pairs), each `var 1 / n`.
 fn correlation_entries(acq: &Acquisition) -> Vec<Entry> {
     let (w, h) = (acq.width, acq.height);
-    let pairs = || acq.blocks.iter().filter(|b| b.group == 0 && b.frames.len() == 2);
-    let dark = pairs().find(|b| b.light == Light::Dark);
-    let mut bright: Vec<_> = pairs().filter(|b| b.light != Light::Dark).collect();
-    bright.sort_by(|a, b| a.light.photons().total_cmp(&b.light.photons()));
-    let middle = bright.get(bright.len() / 2).copied();
+    let [dark, middle] = correlation_pairs(acq).map(|i| i.map(|i| &acq.blocks[i]));
     let mut out = Vec::new();
     for (name, pair) in [("dark", dark), ("middle bright", middle)] {
         let Some(b) = pair else { continue };
