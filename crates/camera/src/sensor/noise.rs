@@ -1073,6 +1073,7 @@ impl FrameSimulator<'_> {
         let extra_var = self.post_sd * self.post_sd + dither_dn * dither_dn / 12.0;
         let row_var = self.row_sd * self.row_sd;
         let g = self.nonlinearity_dn();
+        let bends = !g.is_identity();
         let pixels = self.row_inputs(constants, r, photons);
         // The darkest pixel's electrons and gain slope, for the rounding bound.
         let (mut lambda_min, mut slope_at_min, mut var_at_min) = (f64::INFINITY, 1.0, 0.0);
@@ -1086,7 +1087,7 @@ impl FrameSimulator<'_> {
             below_full_well &= headroom > 0.0 && headroom * headroom > 64.0 * var_e;
             let (mu, v) = (k * mean_e, k * k * var_e);
             let (mut a, mut slope, mut curvature) = (mu, 1.0, 0.0);
-            if !g.is_identity() {
+            if bends {
                 // E[x^2..4] from the cumulants of x = k e: Poisson's are all lambda, the read
                 // noise adds to the second.
                 let (k3, k4) = (k * k * k * lambda, k * k * k * k * lambda);
