@@ -35,6 +35,7 @@ use std::path::{Path, PathBuf};
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
+use crate::sensor::catalog::Colour;
 use crate::sensor::{Catalog, Sensor, SensorModel};
 use scene_gen_render::Camera;
 use scene_gen_scene::trajectory::Pose;
@@ -62,6 +63,34 @@ pub enum NoiseKind {
     Affine,
     /// The noiseless mean signal (grey image at the ADC depth).
     Off,
+}
+
+/// Which path a camera's light takes through its sensor.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum ColourPath {
+    /// The catalog part's own: through its colour filter array to sRGB when it has one, as
+    /// luminance when it is monochrome.
+    #[default]
+    Catalog,
+    /// The monochrome variant of the part: luminance at the ADC depth, no colour filter array,
+    /// with the catalog's noise figures and quantum efficiency (makers sell many colour parts
+    /// as monochrome ones too, with the same pixel).
+    Mono,
+}
+
+impl ColourPath {
+    fn parse(text: &str) -> Option<ColourPath> {
+        match text.to_ascii_lowercase().as_str() {
+            "catalog" => Some(ColourPath::Catalog),
+            "mono" => Some(ColourPath::Mono),
+            _ => None,
+        }
+    }
+
+    fn is_catalog(&self) -> bool {
+        *self == ColourPath::Catalog
+    }
 }
 
 impl NoiseKind {
@@ -135,6 +164,10 @@ pub struct CameraSpec {
     pub vignetting: bool,
     #[serde(default)]
     pub noise: NoiseKind,
+    /// The catalog part's colour path, or its monochrome variant ([`ColourPath`]); left out of
+    /// a written spec when it is the catalog's.
+    #[serde(default, skip_serializing_if = "ColourPath::is_catalog")]
+    pub colour: ColourPath,
     /// Bin the sensor down to at most this many pixels across (see the module doc).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub max_width_px: Option<u32>,
@@ -205,6 +238,7 @@ impl CameraSpec {
             lens_transmittance: d_transmittance(),
             vignetting: true,
             noise: NoiseKind::Emva,
+            colour: ColourPath::Catalog,
             max_width_px: None,
             diffraction: true,
             defocus: false,
@@ -288,6 +322,10 @@ impl CameraSpec {
                     spec.noise = NoiseKind::parse(value)
                         .ok_or_else(|| field(key, format!("'{value}' is not emva, affine or off")))?;
                 }
+                "colour" => {
+                    spec.colour = ColourPath::parse(value)
+                        .ok_or_else(|| field(key, format!("'{value}' is not catalog or mono")))?;
+                }
                 "max_width_px" => {
                     spec.max_width_px =
                         Some(value.parse::<u32>().map_err(|_| field(key, format!("'{value}' is not a whole number")))?);
@@ -357,6 +395,10 @@ impl CameraSpec {
             name: self.sensor.clone(),
             suggestions: close_names(catalog, &self.sensor),
         })?;
+        let mut sensor = sensor.clone();
+        if self.colour == ColourPath::Mono {
+            sensor.colour = Colour::Mono;
+        }
         let [w, h] = sensor.resolution;
         let (width_px, height_px, bin) = match self.max_width_px {
             Some(m) if m < w => {
@@ -367,11 +409,11 @@ impl CameraSpec {
         };
         Ok(ResolvedCamera {
             spec: self.clone(),
-            sensor: sensor.clone(),
+            pixel_pitch_um: (sensor.pixel_pitch_um * bin) as f32,
+            sensor,
             width_px,
             height_px,
             bin_factor: bin,
-            pixel_pitch_um: (sensor.pixel_pitch_um * bin) as f32,
         })
     }
 }
@@ -494,6 +536,7 @@ mod tests {
             ("IMX174,pitch_deg", "pitch_deg"),
             ("focal_mm=4", "sensor"),
             ("IMX174,noise=loud", "noise"),
+            ("IMX174,colour=grey", "colour"),
         ] {
             let e = CameraSpec::from_inline(text).unwrap_err().to_string();
             assert!(e.contains(name), "{text}: {e}");
@@ -506,6 +549,25 @@ mod tests {
         assert!(e.to_string().starts_with("cam.toml:2:"), "{e}");
         let ok = CameraSpec::from_toml("sensor = \"IMX174\"\nnoise = \"affine\"\n", Path::new("c.toml")).unwrap();
         assert_eq!(ok.noise, NoiseKind::Affine);
+    }
+
+    /// `colour = "mono"` takes a colour part's monochrome variant: no colour filter array, the
+    /// same pixel figures; a written spec names the key only when it is set.
+    #[test]
+    fn mono_variant_leaves_the_colour_filter_out() {
+        let catalog = Catalog::embedded();
+        let colour = CameraSpec::from_inline("IMX174").unwrap().resolve(&catalog).unwrap();
+        let mono = CameraSpec::from_inline("IMX174,colour=mono").unwrap().resolve(&catalog).unwrap();
+        assert_eq!(colour.sensor.colour, Colour::Colour);
+        assert!(crate::bayer::cfa_of(&colour).is_some());
+        assert_eq!(mono.sensor.colour, Colour::Mono);
+        assert!(crate::bayer::cfa_of(&mono).is_none());
+        assert_eq!(mono.sensor.read_noise_e, colour.sensor.read_noise_e);
+        assert_eq!(mono.sensor.quantum_efficiency, colour.sensor.quantum_efficiency);
+        let written = toml::to_string(&mono.spec).unwrap();
+        assert!(written.contains("colour = \"mono\""), "{written}");
+        assert_eq!(CameraSpec::from_toml(&written, Path::new("m.toml")).unwrap(), mono.spec);
+        assert!(!toml::to_string(&colour.spec).unwrap().contains("colour"));
     }
 
     #[test]
