@@ -987,8 +987,8 @@ pub const SCREEN_MIN_ROWS: usize = 240;
 pub const SCREEN_KEEP: usize = 3;
 
 /// Screening: the chi-square of a model on the top `1 / 4` of the sensor's rows, against the
-/// measured statistics of the same rows. The window is bit for bit the full simulation's top rows
-/// ([`simulate_rows`]), a quarter of its cost; the search ranks a round's candidates by their
+/// measured statistics of the same rows. The window draws what the full simulation draws for
+/// its top rows ([`simulate_rows`]), at a quarter of its cost; the search ranks a round's candidates by their
 /// screened drop and simulates only the [`SCREEN_KEEP`] best in full, so acceptance is always
 /// decided on the full acquisition.
 struct Screen {

@@ -363,7 +363,10 @@ pub fn block_draws(measured: &Acquisition, draws: Draws) -> Vec<Draws> {
 /// `draws[i]` says ([`Draws::Pixels`] past its end): every fixed-pattern map and every frame's
 /// temporal noise is drawn row by row from its own substream, whether a row is drawn from its
 /// moments depends on that row alone, and the fall-off map is the full sensor's, so these rows
-/// are bit for bit the full simulation's.
+/// are bit for bit the full simulation's. A pair drawn as its statistics ([`Block::pair`])
+/// shares its rows' draws with the full simulation, not its column means; and a window whose
+/// rows are all described summarises a pair that the full frame, with a row near the full
+/// well below it, draws pixel by pixel.
 #[must_use]
 pub fn simulate_rows(
     model: &GapModel,
