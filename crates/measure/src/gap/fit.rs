@@ -802,8 +802,21 @@ struct Evaluator {
     /// that changed nothing, a polish proposal equal to the current model), and a simulation is
     /// deterministic, so a repeat is a lookup.
     cache: Mutex<Vec<EvalEntry>>,
-    /// Full simulations run and evaluations answered from the cache.
-    counts: Mutex<(usize, usize)>,
+    /// The simulations the search ran, by kind.
+    counts: Mutex<Counts>,
+}
+
+/// Simulations a search ran, by kind (what its time goes to; logged at the end).
+#[derive(Debug, Default, Clone, Copy)]
+struct Counts {
+    /// Full simulations.
+    full: usize,
+    /// Evaluations answered from the cache.
+    cached: usize,
+    /// Screening windows simulated ([`Screen`]).
+    windows: usize,
+    /// One-pair simulations of the read-noise refits.
+    dark_pairs: usize,
 }
 
 /// A cached evaluation: model, group gains (dB), statistics and gap.
@@ -824,10 +837,10 @@ impl Evaluator {
             .find(|(m, g, _, _)| m == model && *g == self.layout.gains_db)
             .map(|(_, _, s, g)| (s.clone(), g.clone()));
         if let Some(r) = hit {
-            lock(&self.counts).1 += 1;
+            lock(&self.counts).cached += 1;
             return r;
         }
-        lock(&self.counts).0 += 1;
+        lock(&self.counts).full += 1;
         let sim = self.simulate(model, self.seed, None);
         let mut s = stats::compute(&sim, &self.t);
         drop(sim);
@@ -860,6 +873,7 @@ impl Evaluator {
 
     /// Temporal variance of the simulated first dark pair.
     fn dark_var(&self, model: &GapModel) -> f64 {
+        lock(&self.counts).dark_pairs += 1;
         let sim = self.simulate(model, self.seed, Some(&[self.dark_pair]));
         let b = &sim.blocks[self.dark_pair];
         let n = b.frames[0].len() as f64;
@@ -988,9 +1002,9 @@ pub const SCREEN_KEEP: usize = 3;
 
 /// Screening: the chi-square of a model on the top `1 / 4` of the sensor's rows, against the
 /// measured statistics of the same rows. The window draws what the full simulation draws for
-/// its top rows ([`simulate_rows`]), at a quarter of its cost; the search ranks a round's candidates by their
-/// screened drop and simulates only the [`SCREEN_KEEP`] best in full, so acceptance is always
-/// decided on the full acquisition.
+/// its top rows ([`simulate_rows`]), at a quarter of its cost; the search ranks a round's
+/// candidates by their screened drop and simulates only the [`SCREEN_KEEP`] best in full, so
+/// acceptance is always decided on the full acquisition.
 struct Screen {
     rows: usize,
     m: Stats,
@@ -1011,6 +1025,7 @@ impl Screen {
         if let Some((_, _, c)) = lock(&self.cache).iter().find(|(m, g, _)| m == model && *g == ev.layout.gains_db) {
             return *c;
         }
+        lock(&ev.counts).windows += 1;
         let sim = simulate_rows(model, &ev.layout, ev.seed, None, self.rows, &ev.draws);
         let mut s = stats::compute(&sim, &ev.t);
         expect_dark_tails(&mut s, model, &ev.t);
@@ -1096,10 +1111,10 @@ impl Problem for GapProblem {
     /// chi-square, until a pass gains less than 1 (closed forms are only approximate where frames
     /// clip at 0 DN or at the ADC limit).
     fn polish(&mut self, _: &[&'static str], model: GapModel, sim: GapSim) -> (GapModel, GapSim) {
-        let simulations_before = lock(&self.ev.counts).0;
+        let simulations_before = lock(&self.ev.counts).full;
         let polished =
             if self.screen.is_some() { self.polish_screened(model, sim) } else { self.polish_full(model, sim) };
-        log::debug!("polish: {} full simulations", lock(&self.ev.counts).0 - simulations_before);
+        log::debug!("polish: {} full simulations", lock(&self.ev.counts).full - simulations_before);
         polished
     }
 }
@@ -1267,7 +1282,17 @@ pub fn search(
     let (final_stats, gap_final) = outcome.sim;
     let ev = problem.ev;
     let gains_db = ev.layout.gains_db.clone();
-    let (simulations, cached_evaluations) = *lock(&ev.counts);
+    let counts = *lock(&ev.counts);
+    log::info!(
+        "gap search: {} full simulations ({} answered from the cache), {} screening windows, {} one-pair \
+         read-noise simulations, then {} replicates",
+        counts.full,
+        counts.cached,
+        counts.windows,
+        counts.dark_pairs,
+        options.replicates
+    );
+    let (simulations, cached_evaluations) = (counts.full, counts.cached);
     let misfit = (options.replicates > 0).then(|| {
         // Side by side, as the screened candidates (`GapProblem::screen`).
         let replicates: Vec<Stats> =

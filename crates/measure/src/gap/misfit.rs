@@ -29,8 +29,8 @@
 //! peak (its frequencies) or tail count (measured against expected pixels). The search then
 //! calls an added effect *tentative* when its evidence rests on those statistics
 //! ([`super::GapResult::tentative`]), or on a family left elevated ([`ELEVATED_SIGMAS`]) whose
-//! remaining excess is larger than what the effect took from it. The test-chart loop runs the same [`test()`] on its own
-//! statistics (`crate::target`).
+//! remaining excess is larger than what the effect took from it. The test-chart loop runs the
+//! same [`test()`] on its own statistics (`crate::target`).
 
 use rand::Rng as _;
 use serde::Serialize;
@@ -51,6 +51,10 @@ pub const LOCATE_SIGMAS: f64 = 3.0;
 /// A family the final model leaves this many replicate standard deviations above their mean
 /// is elevated: short of unexplained, yet not explained either.
 pub const ELEVATED_SIGMAS: f64 = 2.0;
+
+/// An effect improved a family when it lowered the family's chi-square by more than this (a
+/// parameter fitted to noise lowers it by about 1).
+const IMPROVED_CHI2: f64 = 1.0;
 
 /// Families whose statistics sample one response curve: against photons or exposure (the
 /// sensor workflow's), against reflectance or signal (the test chart's patch means and
@@ -234,23 +238,24 @@ impl Evidence {
     }
 
     fn entangled_elevated(&self, check: &MisfitCheck) -> Vec<&'static str> {
-        let elevated: Vec<(&'static str, f64)> = check
+        // (family, its excess over the replicates' mean, the effect's drop there)
+        let elevated: Vec<(&'static str, f64, f64)> = check
             .families
             .iter()
             .filter(|f| !f.unexplained && f.chi2 - f.null_mean > ELEVATED_SIGMAS * f.null_sd)
-            .map(|f| (f.family, f.chi2 - f.null_mean))
-            .filter(|&(family, _)| self.family_drop(family) > 1.0)
+            .map(|f| (f.family, f.chi2 - f.null_mean, self.family_drop(f.family)))
+            .filter(|&(_, _, drop)| drop > IMPROVED_CHI2)
             .collect();
         if elevated.is_empty() {
             return Vec::new();
         }
         let total: f64 = self.before.residuals.iter().zip(&self.accepted.residuals).map(|(b, c)| b * b - c * c).sum();
-        let inside: f64 = elevated.iter().map(|&(family, _)| self.family_drop(family)).sum();
-        let absorbed = elevated.iter().all(|&(family, excess)| self.family_drop(family) < excess);
+        let inside: f64 = elevated.iter().map(|&(_, _, drop)| drop).sum();
+        let absorbed = elevated.iter().all(|&(_, excess, drop)| drop < excess);
         if total - inside > self.penalty || !absorbed {
             return Vec::new();
         }
-        elevated.into_iter().map(|(family, _)| family).collect()
+        elevated.into_iter().map(|(family, _, _)| family).collect()
     }
 
     fn entangled_unexplained(&self, check: &MisfitCheck) -> Vec<&'static str> {
@@ -265,11 +270,7 @@ impl Evidence {
         if drop > self.penalty {
             return Vec::new();
         }
-        let improved = |family: &str| {
-            (self.before.families.iter().zip(&self.accepted.families))
-                .any(|(x, y)| x.0 == family && y.0 == family && y.1 < x.1 - 1.0)
-        };
-        check.unexplained.iter().map(|u| u.family).filter(|f| improved(f)).collect()
+        check.unexplained.iter().map(|u| u.family).filter(|f| self.family_drop(f) > IMPROVED_CHI2).collect()
     }
 }
 
