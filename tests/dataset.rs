@@ -335,3 +335,37 @@ fn class_masks_and_normals_agree_with_the_frame() {
         );
     }
 }
+
+/// The `evaluator` preset shades at anchors: its images are rendered anew (not one byte like
+/// `preview`'s) but as bright within a few per cent, and everything traced at every pixel
+/// (depth, masks, classes, normals, the COCO files) is `preview`'s to the byte.
+#[test]
+fn evaluator_quality_changes_the_light_only() {
+    let preview = single();
+    let dir = scratch("evaluator");
+    let mut args = vec!["dataset", "--out", dir.to_str().unwrap()];
+    args.extend_from_slice(&ARGS);
+    *args.last_mut().unwrap() = "evaluator";
+    let out = scene_gen(&args);
+    assert!(out.status.success(), "{}", text(&out));
+    let (ours, theirs) = (tree(&dir), tree(preview));
+    assert_eq!(ours.keys().collect::<Vec<_>>(), theirs.keys().collect::<Vec<_>>());
+    let mut images = 0;
+    for (rel, bytes) in &ours {
+        if rel.starts_with("images/") {
+            let mean = |b: &[u8]| {
+                let img = image::load_from_memory(b).unwrap().into_rgb8();
+                img.as_raw().iter().map(|&v| f64::from(v)).sum::<f64>() / img.as_raw().len() as f64
+            };
+            let (a, b) = (mean(bytes), mean(&theirs[rel]));
+            assert_ne!(bytes, &theirs[rel], "{rel}: the same bytes as preview");
+            assert!((a / b - 1.0).abs() < 0.05, "{rel}: mean {a:.1} against preview's {b:.1}");
+            images += 1;
+        } else if ["depth/", "masks/", "classes/", "normals/", "annotations/"].iter().any(|d| rel.starts_with(d)) {
+            assert_eq!(bytes, &theirs[rel], "{rel}");
+        }
+    }
+    assert_eq!(images, 8, "two houses, two frames, day and night");
+    let spec: serde_json::Value = serde_json::from_slice(&ours["dataset.json"]).unwrap();
+    assert_eq!(spec["quality"], "evaluator");
+}

@@ -149,10 +149,11 @@ def render(
     """Renders ``scene`` through ``camera``: at the first ``frames`` poses of the agent's walk,
     or at ``poses`` (a list of poses, an (N, 3..5) array, or a JSON / CSV path file as
     ``scene-gen render --poses`` reads). ``lighting`` is ``day`` (20 lux on the 0.75 m plane),
-    ``night`` (2 lux) or ``both``; ``quality`` ``preview``, ``standard`` or ``high``;
-    ``max_width`` bins the sensor down (keeping the field of view). Returns one
-    :class:`Frame` per pose and lighting, in pose order (day before night). The frames match
-    ``scene-gen render``'s files for the same house, camera and poses."""
+    ``night`` (2 lux) or ``both``; ``quality`` ``evaluator`` (the evaluator's render, the
+    fastest), ``preview``, ``standard`` or ``high``; ``max_width`` bins the sensor down
+    (keeping the field of view). Returns one :class:`Frame` per pose and lighting, in pose
+    order (day before night). The frames match ``scene-gen render``'s files for the same
+    house, camera and poses."""
     cam = _camera(camera)
     pose_list = None
     pose_file = None

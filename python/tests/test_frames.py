@@ -48,6 +48,15 @@ def test_render_matches_the_command_line(cli, tmp_path, scene):
         assert (depth_mm[~np.isfinite(f.depth)] == 0).all()
 
 
+def test_evaluator_quality_matches_the_command_line(cli, tmp_path, scene):
+    cli("render", "--seed", 5, "--camera", CAMERA, "--frames", 1, "--lighting", "day",
+        "--quality", "evaluator", "--max-width", 96, "--out", tmp_path)
+    (f,) = sg.render(scene, CAMERA, frames=1, lighting="day", quality="evaluator", max_width=96)
+    assert np.array_equal(f.image, cv2.cvtColor(png(tmp_path / "frame_0000_day.png"), cv2.COLOR_BGR2RGB))
+    (p,) = sg.render(scene, CAMERA, frames=1, lighting="day", quality="preview", max_width=96)
+    assert not np.array_equal(f.image, p.image), "the evaluator's anchors shade another image than preview"
+    np.testing.assert_array_equal(f.instance_ids, p.instance_ids)
+
 def test_frame_buffers_agree(scene):
     (f,) = sg.render(scene, CAMERA, frames=1, lighting="day", quality="preview", max_width=96)
     h, w = f.depth.shape

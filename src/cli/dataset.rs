@@ -29,6 +29,9 @@ pub enum LightingArg {
 /// Sample-count presets of the ray tracer (as `scene-gen render`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum QualityArg {
+    /// The evaluator's render: irradiance at adaptive anchors, the fastest.
+    Evaluator,
+    /// One ray per pixel, shaded at every pixel.
     Preview,
     Standard,
     High,
@@ -104,6 +107,7 @@ pub fn run(args: &DatasetArgs) -> Result<(), CliError> {
         LightingArg::Both => vec![Lighting::Day, Lighting::Night],
     };
     let quality = match args.quality {
+        QualityArg::Evaluator => Quality::Evaluator,
         QualityArg::Preview => Quality::Preview,
         QualityArg::Standard => Quality::Standard,
         QualityArg::High => Quality::High,

@@ -43,13 +43,14 @@ pub fn lighting(name: &str) -> PyResult<Vec<Lighting>> {
     }
 }
 
-/// The render quality of a `quality` argument: `preview`, `standard` or `high`.
+/// The render quality of a `quality` argument: `evaluator`, `preview`, `standard` or `high`.
 pub fn quality(name: &str) -> PyResult<Quality> {
     match name {
+        "evaluator" => Ok(Quality::Evaluator),
         "preview" => Ok(Quality::Preview),
         "standard" => Ok(Quality::Standard),
         "high" => Ok(Quality::High),
-        other => Err(bad_input(format!("quality '{other}': expected 'preview', 'standard' or 'high'"))),
+        other => Err(bad_input(format!("quality '{other}': expected 'evaluator', 'preview', 'standard' or 'high'"))),
     }
 }
 

@@ -53,6 +53,8 @@ use scene_gen_scene::house::{HouseError, HouseOptions, WalkedHouse, load_library
 use scene_gen_scene::scene::{LightGroup, ObjectClass, THRESHOLD_CLASS_ID, THRESHOLD_CLASS_NAME};
 use scene_gen_scene::trajectory::TrajectoryParams;
 
+use crate::evaluate::eval_render_settings;
+
 pub use rle::{Rle, RleJson};
 pub use shard::{SeedRange, Shard, ShardError, parse_seeds};
 
@@ -170,8 +172,16 @@ impl Lighting {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Quality {
+    /// The evaluator's render ([`eval_render_settings`]): one ray per pixel, the irradiance
+    /// at adaptive anchors every few pixels (texture and edges still at every pixel), every
+    /// light traced, the volume's bounced light. The fastest preset, and the frames a
+    /// candidate is judged on.
+    Evaluator,
+    /// One ray per pixel, shaded at every pixel ([`RenderSettings::preview`]).
     Preview,
+    /// [`RenderSettings::standard`].
     Standard,
+    /// [`RenderSettings::high`].
     High,
 }
 
@@ -180,6 +190,7 @@ impl Quality {
     #[must_use]
     pub fn settings(self) -> RenderSettings {
         match self {
+            Quality::Evaluator => eval_render_settings(),
             Quality::Preview => RenderSettings::preview(),
             Quality::Standard => RenderSettings::standard(),
             Quality::High => RenderSettings::high(),
