@@ -16,7 +16,14 @@
 //! irradiance volume", IEEE CG&A 1998) do, with two refinements of probe-based real-time
 //! global illumination (Majercik et al., "Dynamic diffuse global illumination with
 //! ray-traced irradiance fields", JCGT 2019): probes whose rays mostly hit back faces
-//! (inside furniture) are left out, and probes behind the surface weigh less.
+//! (inside furniture) are left out, probes behind the surface weigh less, and a probe that
+//! cannot see the shading point (behind a curtain, a cushion, a door leaf) drops out by the
+//! same paper's Chebyshev test on how far its rays travelled in that direction. The distances
+//! are kept on an 8x8 octahedral map, each cell holding the distance of the probe's ray
+//! nearest its centre (Majercik et al. filter a 16x16 map of many rays; a mean over the few
+//! rays of a coarse cell mixes a thin leaf with the room past its edge and lets the light
+//! through). Without the test, a curtain panel or an open door leaf reads the
+//! probes on its other side, which see that side lit by the window, and glows.
 //!
 //! How the probes learn the multi-bounce light: every probe casts [`VolumeSettings::rays`]
 //! rays (a spherical Fibonacci set, randomly rotated per probe) and records what each hits:
@@ -72,6 +79,72 @@ const PROBE_INSET_M: f32 = 0.02;
 /// How far a shading point is moved along its normal before the blend, metres: enough to
 /// leave the plane of the probes on its own wall.
 const NORMAL_BIAS_M: f32 = 0.02;
+/// Side of each probe's octahedral map of ray distances ([`depth_bin`]): 64 cells of about
+/// 14 degrees for 128 rays about 18 degrees apart.
+const DEPTH_SIDE: usize = 8;
+/// Direction cells of a probe's ray distances.
+const DEPTH_BINS: usize = DEPTH_SIDE * DEPTH_SIDE;
+/// Distance a ray that meets nothing counts as, metres (past any house).
+const MISS_DISTANCE_M: f32 = 100.0;
+/// Spread the visibility test allows a cell's distance: this much, plus [`DEPTH_SPREAD`] of
+/// the distance, since the cell's ray runs up to about 9 degrees off the direction asked.
+const DEPTH_SD_M: f32 = 0.02;
+/// Spread per metre of distance ([`DEPTH_SD_M`]).
+const DEPTH_SPREAD: f32 = 0.1;
+/// Least visibility weight of a probe, so a point every probe's test rejects still blends.
+const MIN_VISIBILITY: f32 = 1e-3;
+
+/// The cell of direction `d` (unit) in a probe's octahedral map of ray distances: the sphere
+/// folded onto the square `|u| + |v| <= 1` (upper half) and its corners (lower half), cut
+/// into [`DEPTH_SIDE`]^2 cells.
+#[inline]
+fn depth_bin(d: Vec3) -> usize {
+    let n = d / (d.x.abs() + d.y.abs() + d.z.abs()).max(f32::MIN_POSITIVE);
+    let (u, v) =
+        if n.z >= 0.0 { (n.x, n.y) } else { ((1.0 - n.y.abs()) * n.x.signum(), (1.0 - n.x.abs()) * n.y.signum()) };
+    let cell = |x: f32| (((x + 1.0) * 0.5 * DEPTH_SIDE as f32) as usize).min(DEPTH_SIDE - 1);
+    cell(u) + DEPTH_SIDE * cell(v)
+}
+
+/// The direction at the centre of cell `bin` of the octahedral map ([`depth_bin`] unfolded).
+fn depth_bin_centre(bin: usize) -> Vec3 {
+    let centre = |i: usize| (i as f32 + 0.5) / DEPTH_SIDE as f32 * 2.0 - 1.0;
+    let (u, v) = (centre(bin % DEPTH_SIDE), centre(bin / DEPTH_SIDE));
+    let z = 1.0 - u.abs() - v.abs();
+    let (x, y) = if z >= 0.0 { (u, v) } else { ((1.0 - v.abs()) * u.signum(), (1.0 - u.abs()) * v.signum()) };
+    Vec3::new(x, y, z).normalize()
+}
+
+/// Per cell of the octahedral map, the distance the probe's even ray nearest the cell's centre
+/// travelled.
+type DepthMap = [f32; DEPTH_BINS];
+
+/// [`DepthMap`] of rays `rays` (direction, distance).
+fn depth_map(rays: &[(Vec3, f32)]) -> DepthMap {
+    std::array::from_fn(|bin| {
+        let c = depth_bin_centre(bin);
+        rays.iter().max_by(|a, b| a.0.dot(c).total_cmp(&b.0.dot(c))).map_or(MISS_DISTANCE_M, |r| r.1)
+    })
+}
+
+/// How much a probe whose distances are `depth` sees a point `offset` away (the point minus
+/// the probe): 1 where the point is no farther than the probe's ray that way went, else
+/// Chebyshev's bound on the chance that it is, cubed (Majercik et al. 2019), with the spread
+/// the ray's direction allows ([`DEPTH_SD_M`], [`DEPTH_SPREAD`]).
+#[inline]
+fn visibility(depth: &DepthMap, offset: Vec3) -> f32 {
+    let r = offset.length();
+    if r <= 1e-6 {
+        return 1.0;
+    }
+    let t = depth[depth_bin(offset / r)];
+    if r <= t {
+        return 1.0;
+    }
+    let sd = DEPTH_SD_M + DEPTH_SPREAD * t;
+    let c = sd * sd / (sd * sd + (r - t) * (r - t));
+    (c * c * c).max(MIN_VISIBILITY)
+}
 
 /// How the volume is sampled.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -237,6 +310,8 @@ pub struct IrradianceVolume {
     grids: Vec<ProbeGrid>,
     /// Per probe (grid by grid, in each grid's order), whether it stands in free space.
     valid: Vec<bool>,
+    /// Per probe, how far its rays went in each direction ([`visibility`]).
+    depths: Vec<DepthMap>,
     /// Per probe, the irradiance of light that bounced at least once.
     cubes: Vec<GroupCube>,
     /// Passes the iteration ran (the bounces the light took at most).
@@ -255,16 +330,18 @@ impl IrradianceVolume {
         let positions: Vec<Vec3> =
             grids.iter().flat_map(|g| (0..g.len()).map(move |i| g.position(i))).collect::<Vec<_>>();
         let rays = settings.rays.max(1);
-        let gathered: Vec<(Vec<Gather>, bool, u32)> = positions
+        let gathered: Vec<Probe> = positions
             .par_iter()
             .enumerate()
             .map(|(i, &p)| gather_probe(scene, accel, lights, &grids, p, rays, seed, i as u64))
             .collect();
-        let valid = gathered.iter().map(|g| g.1).collect();
-        let probe_rays = gathered.iter().map(|g| u64::from(g.2)).sum();
+        let valid = gathered.iter().map(|g| g.valid).collect();
+        let depths = gathered.iter().map(|g| g.depth).collect();
+        let probe_rays = gathered.iter().map(|g| u64::from(g.traced)).sum();
         let mut volume = IrradianceVolume {
             grids,
             valid,
+            depths,
             cubes: vec![[[Vec3::ZERO; 6]; 2]; gathered.len()],
             bounces: 0,
             probe_rays,
@@ -273,7 +350,7 @@ impl IrradianceVolume {
         // passes then only re-weigh cubes.
         let bounces: Vec<Vec<Bounce>> = gathered
             .into_par_iter()
-            .map(|(gathers, _, _)| gathers.into_iter().map(|g| volume.bounce_of(&g)).collect())
+            .map(|probe| probe.gathers.into_iter().map(|g| volume.bounce_of(&g)).collect())
             .collect();
         volume.iterate(&bounces, settings.max_bounces);
         volume
@@ -413,11 +490,12 @@ impl IrradianceVolume {
             if w <= 0.0 || !self.valid[index] {
                 continue;
             }
-            // Probes behind the surface weigh less (a smooth back-face weight).
+            // Probes behind the surface weigh less (a smooth back-face weight), and probes that
+            // cannot see it drop out.
             let probe = g.lo + g.step * Vec3::new(cell[0] as f32, cell[1] as f32, cell[2] as f32);
             let towards = (probe - point).normalize_or_zero();
             let facing = 0.5 * (towards.dot(normal) + 1.0);
-            let w = w * (facing * facing + 0.2);
+            let w = w * (facing * facing + 0.2) * visibility(&self.depths[index], q - probe);
             weight_sum += w;
             blend.probes[corner] = index as u32;
             blend.weights[corner] = w;
@@ -619,7 +697,7 @@ fn gather_probe(
     rays: u32,
     seed: u64,
     key: u64,
-) -> (Vec<Gather>, bool, u32) {
+) -> Probe {
     let mut sampler = Sampler::new(seed, "render/irradiance-volume", key);
     let blockers = Blockers::default();
     let rotation = random_rotation(&mut sampler);
@@ -627,13 +705,15 @@ fn gather_probe(
     let mut probe = ProbeRays { scene, accel, lights, grids, p, gathers: Vec::new(), traced: 0 };
     let even_weight = 4.0 * PI / rays as f32;
     let mut even_backfaces = 0u32;
+    let mut distances = Vec::with_capacity(rays as usize);
     for dir in sphere_directions(rays, rotation) {
-        let backface = if caps.iter().any(|c| c.contains(dir)) {
+        let met = if caps.iter().any(|c| c.contains(dir)) {
             probe.backface(dir)
         } else {
             probe.trace(dir, even_weight, &mut sampler, &blockers)
         };
-        even_backfaces += u32::from(backface);
+        even_backfaces += u32::from(met.backface);
+        distances.push((dir, met.distance_m));
     }
     for (k, cap) in caps.iter().enumerate() {
         let even_rays_inside = rays as f32 * cap.solid_angle_sr / (4.0 * PI);
@@ -651,7 +731,28 @@ fn gather_probe(
     // Judged on the even rays alone: the caps crowd their rays round a lamp, whose shade's
     // inside is a back face seen through its opening.
     let valid = (even_backfaces as f32) <= MAX_BACKFACE_FRACTION * rays as f32;
-    (probe.gathers, valid, probe.traced)
+    Probe { gathers: probe.gathers, valid, depth: depth_map(&distances), traced: probe.traced }
+}
+
+/// What [`gather_probe`] learns of one probe.
+struct Probe {
+    /// Its rays' lit hits.
+    gathers: Vec<Gather>,
+    /// Whether it stands in free space.
+    valid: bool,
+    /// How far its even rays went.
+    depth: DepthMap,
+    /// Rays traced.
+    traced: u32,
+}
+
+/// What one probe ray met first.
+#[derive(Clone, Copy, Debug)]
+struct Met {
+    /// A back face.
+    backface: bool,
+    /// At this distance, metres ([`MISS_DISTANCE_M`] when nothing).
+    distance_m: f32,
 }
 
 /// One probe's rays as they are traced.
@@ -666,28 +767,32 @@ struct ProbeRays<'a> {
 }
 
 impl ProbeRays<'_> {
-    /// Whether the ray along `dir` meets a back face first (traced only for the count).
-    fn backface(&mut self, dir: Vec3) -> bool {
+    /// What the ray along `dir` meets first (traced only for the back-face count and the
+    /// distances).
+    fn backface(&mut self, dir: Vec3) -> Met {
         self.traced += 1;
-        self.accel
-            .closest_hit(self.p, dir, f32::INFINITY)
-            .is_some_and(|h| self.accel.face_normal(h.triangle).dot(dir) > 0.0)
+        match self.accel.closest_hit(self.p, dir, f32::INFINITY) {
+            Some(h) => Met { backface: self.accel.face_normal(h.triangle).dot(dir) > 0.0, distance_m: h.t },
+            None => Met { backface: false, distance_m: MISS_DISTANCE_M },
+        }
     }
 
-    /// Traces the ray along `dir`, which stands for `weight` steradians of the sphere; whether
-    /// it met a back face. A back face is still shaded (the renderer is two-sided: the inside
-    /// of a lamp shade is lit), but many of them mean the probe is inside a solid.
-    fn trace(&mut self, dir: Vec3, weight: f32, sampler: &mut Sampler, blockers: &Blockers) -> bool {
+    /// Traces the ray along `dir`, which stands for `weight` steradians of the sphere; what
+    /// it met first. A back face is still shaded (the renderer is two-sided: the inside of a
+    /// lamp shade is lit), but many of them mean the probe is inside a solid.
+    fn trace(&mut self, dir: Vec3, weight: f32, sampler: &mut Sampler, blockers: &Blockers) -> Met {
         self.traced += 1;
-        let Some(hit) = self.accel.closest_hit(self.p, dir, f32::INFINITY) else { return false };
-        let backface = self.accel.face_normal(hit.triangle).dot(dir) > 0.0;
+        let Some(hit) = self.accel.closest_hit(self.p, dir, f32::INFINITY) else {
+            return Met { backface: false, distance_m: MISS_DISTANCE_M };
+        };
+        let met = Met { backface: self.accel.face_normal(hit.triangle).dot(dir) > 0.0, distance_m: hit.t };
         if self.lights.emitter_seen(self.p, dir, hit.t).is_some() {
-            return backface;
+            return met;
         }
         let surface = self.accel.surface(&hit, self.p, dir);
         let albedo = surface_response(self.scene, &surface).diffuse;
         if albedo == Vec3::ZERO {
-            return backface;
+            return met;
         }
         let (position, ng, ns) = (surface.position, surface.geometric_normal, surface.shading_normal);
         let e = self.lights.direct(
@@ -711,7 +816,7 @@ impl ProbeRays<'_> {
             direct: [e[0] * albedo_over_pi, e[1] * albedo_over_pi],
             grid: grid_of(self.grids, lifted).unwrap_or(0) as u32,
         });
-        backface
+        met
     }
 }
 
