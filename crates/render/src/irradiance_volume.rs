@@ -19,11 +19,12 @@
 //! (inside furniture) are left out, probes behind the surface weigh less, and a probe that
 //! cannot see the shading point (behind a curtain, a cushion, a door leaf) drops out by the
 //! same paper's Chebyshev test on how far its rays travelled in that direction. The distances
-//! are kept on an 8x8 octahedral map, each cell holding the distance of the probe's ray
-//! nearest its centre (Majercik et al. filter a 16x16 map of many rays; a mean over the few
-//! rays of a coarse cell mixes a thin leaf with the room past its edge and lets the light
-//! through). Without the test, a curtain panel or an open door leaf reads the
-//! probes on its other side, which see that side lit by the window, and glows.
+//! are kept on a 16x16 octahedral map (as Majercik et al.'s), each cell holding the distance
+//! of one unshaded ray the probe traces through the cell's centre: a closest hit only, a
+//! fraction of a shaded probe ray. The shaded rays are too few for the map: a cell averaging
+//! them mixes a thin leaf with the room past its edge and lets the light through. Without the
+//! test, a curtain panel or an open door leaf reads the probes on its other side, which see
+//! that side lit by the window, and glows.
 //!
 //! How the probes learn the multi-bounce light: every probe casts [`VolumeSettings::rays`]
 //! rays (a spherical Fibonacci set, randomly rotated per probe) and records what each hits:
@@ -79,18 +80,18 @@ const PROBE_INSET_M: f32 = 0.02;
 /// How far a shading point is moved along its normal before the blend, metres: enough to
 /// leave the plane of the probes on its own wall.
 const NORMAL_BIAS_M: f32 = 0.02;
-/// Side of each probe's octahedral map of ray distances ([`depth_bin`]): 64 cells of about
-/// 14 degrees for 128 rays about 18 degrees apart.
-const DEPTH_SIDE: usize = 8;
+/// Side of each probe's octahedral map of ray distances ([`depth_bin`]): 256 cells, about 7
+/// degrees across.
+const DEPTH_SIDE: usize = 16;
 /// Direction cells of a probe's ray distances.
 const DEPTH_BINS: usize = DEPTH_SIDE * DEPTH_SIDE;
 /// Distance a ray that meets nothing counts as, metres (past any house).
 const MISS_DISTANCE_M: f32 = 100.0;
 /// Spread the visibility test allows a cell's distance: this much, plus [`DEPTH_SPREAD`] of
-/// the distance, since the cell's ray runs up to about 9 degrees off the direction asked.
+/// the distance, since the cell's ray runs up to about 5 degrees off the direction asked.
 const DEPTH_SD_M: f32 = 0.02;
 /// Spread per metre of distance ([`DEPTH_SD_M`]).
-const DEPTH_SPREAD: f32 = 0.1;
+const DEPTH_SPREAD: f32 = 0.05;
 /// Least visibility weight of a probe, so a point every probe's test rejects still blends.
 const MIN_VISIBILITY: f32 = 1e-3;
 
@@ -115,15 +116,13 @@ fn depth_bin_centre(bin: usize) -> Vec3 {
     Vec3::new(x, y, z).normalize()
 }
 
-/// Per cell of the octahedral map, the distance the probe's even ray nearest the cell's centre
-/// travelled.
+/// Per cell of the octahedral map, how far the probe's ray through the cell's centre went.
 type DepthMap = [f32; DEPTH_BINS];
 
-/// [`DepthMap`] of rays `rays` (direction, distance).
-fn depth_map(rays: &[(Vec3, f32)]) -> DepthMap {
+/// [`DepthMap`] of a probe at `p`: one closest-hit ray through each cell's centre.
+fn depth_map(accel: &Accel, p: Vec3) -> DepthMap {
     std::array::from_fn(|bin| {
-        let c = depth_bin_centre(bin);
-        rays.iter().max_by(|a, b| a.0.dot(c).total_cmp(&b.0.dot(c))).map_or(MISS_DISTANCE_M, |r| r.1)
+        accel.closest_hit(p, depth_bin_centre(bin), f32::INFINITY).map_or(MISS_DISTANCE_M, |h| h.t)
     })
 }
 
@@ -534,7 +533,8 @@ impl IrradianceVolume {
 /// A volume with the [`fingerprint`] of its scene.
 type Keyed = (u64, Arc<IrradianceVolume>);
 
-/// Volumes [`IrradianceVolume::shared`] keeps (each well under a megabyte).
+/// Volumes [`IrradianceVolume::shared`] keeps (a few megabytes each: 1.2 KB per probe, most of
+/// it the distance map).
 pub const CACHED_VOLUMES: usize = 16;
 
 /// A 64-bit digest of what a volume's build reads: the scene's geometry, materials, texels,
@@ -705,15 +705,13 @@ fn gather_probe(
     let mut probe = ProbeRays { scene, accel, lights, grids, p, gathers: Vec::new(), traced: 0 };
     let even_weight = 4.0 * PI / rays as f32;
     let mut even_backfaces = 0u32;
-    let mut distances = Vec::with_capacity(rays as usize);
     for dir in sphere_directions(rays, rotation) {
-        let met = if caps.iter().any(|c| c.contains(dir)) {
+        let backface = if caps.iter().any(|c| c.contains(dir)) {
             probe.backface(dir)
         } else {
             probe.trace(dir, even_weight, &mut sampler, &blockers)
         };
-        even_backfaces += u32::from(met.backface);
-        distances.push((dir, met.distance_m));
+        even_backfaces += u32::from(backface);
     }
     for (k, cap) in caps.iter().enumerate() {
         let even_rays_inside = rays as f32 * cap.solid_angle_sr / (4.0 * PI);
@@ -731,7 +729,7 @@ fn gather_probe(
     // Judged on the even rays alone: the caps crowd their rays round a lamp, whose shade's
     // inside is a back face seen through its opening.
     let valid = (even_backfaces as f32) <= MAX_BACKFACE_FRACTION * rays as f32;
-    Probe { gathers: probe.gathers, valid, depth: depth_map(&distances), traced: probe.traced }
+    Probe { gathers: probe.gathers, valid, depth: depth_map(accel, p), traced: probe.traced + DEPTH_BINS as u32 }
 }
 
 /// What [`gather_probe`] learns of one probe.
@@ -746,15 +744,6 @@ struct Probe {
     traced: u32,
 }
 
-/// What one probe ray met first.
-#[derive(Clone, Copy, Debug)]
-struct Met {
-    /// A back face.
-    backface: bool,
-    /// At this distance, metres ([`MISS_DISTANCE_M`] when nothing).
-    distance_m: f32,
-}
-
 /// One probe's rays as they are traced.
 struct ProbeRays<'a> {
     scene: &'a Scene,
@@ -767,32 +756,28 @@ struct ProbeRays<'a> {
 }
 
 impl ProbeRays<'_> {
-    /// What the ray along `dir` meets first (traced only for the back-face count and the
-    /// distances).
-    fn backface(&mut self, dir: Vec3) -> Met {
+    /// Whether the ray along `dir` meets a back face first (traced only for the count).
+    fn backface(&mut self, dir: Vec3) -> bool {
         self.traced += 1;
-        match self.accel.closest_hit(self.p, dir, f32::INFINITY) {
-            Some(h) => Met { backface: self.accel.face_normal(h.triangle).dot(dir) > 0.0, distance_m: h.t },
-            None => Met { backface: false, distance_m: MISS_DISTANCE_M },
-        }
+        self.accel
+            .closest_hit(self.p, dir, f32::INFINITY)
+            .is_some_and(|h| self.accel.face_normal(h.triangle).dot(dir) > 0.0)
     }
 
-    /// Traces the ray along `dir`, which stands for `weight` steradians of the sphere; what
-    /// it met first. A back face is still shaded (the renderer is two-sided: the inside of a
-    /// lamp shade is lit), but many of them mean the probe is inside a solid.
-    fn trace(&mut self, dir: Vec3, weight: f32, sampler: &mut Sampler, blockers: &Blockers) -> Met {
+    /// Traces the ray along `dir`, which stands for `weight` steradians of the sphere; whether
+    /// it met a back face. A back face is still shaded (the renderer is two-sided: the inside
+    /// of a lamp shade is lit), but many of them mean the probe is inside a solid.
+    fn trace(&mut self, dir: Vec3, weight: f32, sampler: &mut Sampler, blockers: &Blockers) -> bool {
         self.traced += 1;
-        let Some(hit) = self.accel.closest_hit(self.p, dir, f32::INFINITY) else {
-            return Met { backface: false, distance_m: MISS_DISTANCE_M };
-        };
-        let met = Met { backface: self.accel.face_normal(hit.triangle).dot(dir) > 0.0, distance_m: hit.t };
+        let Some(hit) = self.accel.closest_hit(self.p, dir, f32::INFINITY) else { return false };
+        let backface = self.accel.face_normal(hit.triangle).dot(dir) > 0.0;
         if self.lights.emitter_seen(self.p, dir, hit.t).is_some() {
-            return met;
+            return backface;
         }
         let surface = self.accel.surface(&hit, self.p, dir);
         let albedo = surface_response(self.scene, &surface).diffuse;
         if albedo == Vec3::ZERO {
-            return met;
+            return backface;
         }
         let (position, ng, ns) = (surface.position, surface.geometric_normal, surface.shading_normal);
         let e = self.lights.direct(
@@ -816,7 +801,7 @@ impl ProbeRays<'_> {
             direct: [e[0] * albedo_over_pi, e[1] * albedo_over_pi],
             grid: grid_of(self.grids, lifted).unwrap_or(0) as u32,
         });
-        met
+        backface
     }
 }
 
