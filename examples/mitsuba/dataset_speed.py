@@ -24,6 +24,7 @@ import argparse
 import glob
 import json
 import os
+import shutil
 import subprocess
 import sys
 import time
@@ -60,7 +61,9 @@ def view_sensor(view, width, height, spp):
 
 
 def run_scene_gen(binary, args, frames, out):
-    """Wall seconds of `scene-gen dataset` for `frames` frames into a fresh folder `out`."""
+    """Wall seconds of `scene-gen dataset` for `frames` frames into a fresh folder `out` (a
+    dataset left there would be resumed, not rendered, so it is removed first)."""
+    shutil.rmtree(out, ignore_errors=True)
     cmd = [binary, "dataset", "--quiet", "--camera", args.camera, "--seeds", f"{args.seed}..{args.seed + 1}",
            "--frames", str(frames), "--quality", args.quality, "--out", out]
     t0 = time.perf_counter()
