@@ -830,6 +830,41 @@ mod tests {
         Blend::facing(n).seen(cube)
     }
 
+    /// Every cell's centre direction folds back into its own cell, the cells cover the whole
+    /// sphere (each of 20,000 spread directions lands in one, and every cell is hit), and no
+    /// cell is much larger than another (the octahedral map is not equal-area: its cells span
+    /// about 4x in solid angle).
+    #[test]
+    fn the_octahedral_cells_tile_the_sphere() {
+        for bin in 0..DEPTH_BINS {
+            let c = depth_bin_centre(bin);
+            assert!((c.length() - 1.0).abs() < 1e-5);
+            assert_eq!(depth_bin(c), bin, "centre {c} of cell {bin}");
+        }
+        let mut hits = [0u32; DEPTH_BINS];
+        for d in sphere_directions(20_000, Quat::IDENTITY) {
+            hits[depth_bin(d)] += 1;
+        }
+        let (lo, hi) = (hits.iter().min().copied().unwrap(), hits.iter().max().copied().unwrap());
+        assert!(lo > 0 && hi < 5 * lo, "cells of {lo} to {hi} directions");
+    }
+
+    /// A probe whose ray that way met a surface 0.3 m off sees a point in front of it fully,
+    /// a point 10 cm behind it (across a door leaf) hardly, and a point far behind not at all;
+    /// where the ray met nothing, everything is seen.
+    #[test]
+    fn a_probe_does_not_see_past_what_its_rays_met() {
+        let dir = Vec3::new(0.3, -0.5, 0.8).normalize();
+        let mut depth = [MISS_DISTANCE_M; DEPTH_BINS];
+        depth[depth_bin(dir)] = 0.3;
+        assert_eq!(visibility(&depth, dir * 0.25), 1.0);
+        assert!(visibility(&depth, dir * 0.4) < 0.01, "{}", visibility(&depth, dir * 0.4));
+        assert_eq!(visibility(&depth, dir * 2.0), MIN_VISIBILITY);
+        assert_eq!(visibility(&depth, -dir * 2.0), 1.0);
+        // Just past the surface, within the spread its ray's direction allows.
+        assert!(visibility(&depth, dir * 0.31) > 0.5);
+    }
+
     /// A constant radiance `L` over the sphere gives irradiance `pi L` on every normal; `L`
     /// on the upper hemisphere only gives `pi L` facing up, nothing facing down and `pi L / 2`
     /// facing sideways, on the cube's faces exactly (up to the ray set's quadrature).
