@@ -26,15 +26,29 @@ pub enum LightingArg {
     Both,
 }
 
-/// Sample-count presets of the ray tracer (as `scene-gen render`).
+/// Sample-count presets of the ray tracer, for `dataset` and `render` ([`Quality`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum QualityArg {
-    /// The evaluator's render: irradiance at adaptive anchors, the fastest.
+    /// The evaluator's render: one ray per pixel, irradiance at adaptive anchors every 4 px
+    /// (texture and edges at every pixel), every light traced; the fastest.
     Evaluator,
-    /// One ray per pixel, shaded at every pixel.
+    /// One ray per pixel, shaded at every pixel; bounced light from the irradiance volume.
     Preview,
+    /// 2x2 pixel samples; bounced light from the irradiance volume.
     Standard,
+    /// 4x4 pixel samples; one final-gather bounce ray per sample over the volume.
     High,
+}
+
+impl From<QualityArg> for Quality {
+    fn from(arg: QualityArg) -> Quality {
+        match arg {
+            QualityArg::Evaluator => Quality::Evaluator,
+            QualityArg::Preview => Quality::Preview,
+            QualityArg::Standard => Quality::Standard,
+            QualityArg::High => Quality::High,
+        }
+    }
 }
 
 #[derive(Args, Debug)]
@@ -106,12 +120,7 @@ pub fn run(args: &DatasetArgs) -> Result<(), CliError> {
         LightingArg::Night => vec![Lighting::Night],
         LightingArg::Both => vec![Lighting::Day, Lighting::Night],
     };
-    let quality = match args.quality {
-        QualityArg::Evaluator => Quality::Evaluator,
-        QualityArg::Preview => Quality::Preview,
-        QualityArg::Standard => Quality::Standard,
-        QualityArg::High => Quality::High,
-    };
+    let quality = Quality::from(args.quality);
     let house = args.house.checked()?;
     let spec = DatasetSpec { house, raw: args.raw, ..DatasetSpec::new(seeds, camera, lighting, frames, quality) };
     let dataset = Dataset::new(&args.out, spec).map_err(classify)?;

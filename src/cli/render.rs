@@ -49,6 +49,7 @@ use clap::{Args, ValueEnum};
 use scene_gen::camera_spec::{CameraSpec, ResolvedCamera};
 use scene_gen::capture::{Capture, Scenario};
 use scene_gen::config::GeneratorConfig;
+use scene_gen::dataset::Quality;
 use scene_gen::dataset::png::{capture_png, depth_png, image_png, instances_png};
 use scene_gen::demosaic::CfaPattern;
 use scene_gen::export::write_atomic;
@@ -58,7 +59,6 @@ use scene_gen::lights::TARGET_PLANE_M;
 use scene_gen::manifest::Manifest;
 use scene_gen::path;
 use scene_gen::radiometry::SensorImage;
-use scene_gen::render::RenderSettings;
 use scene_gen::render::camera::Camera;
 use scene_gen::scene::{LibraryId, LightGroup, MANIFEST_SCHEMA, Scene};
 use scene_gen::sensor::Catalog;
@@ -66,6 +66,7 @@ use scene_gen::trajectory::{self, Pose, TrajectoryParams};
 use scene_gen::view::ViewGeometry;
 use serde::Serialize;
 
+use super::dataset::QualityArg;
 use super::house::HouseArgs;
 use super::progress::Progress;
 use super::{CliError, bad_input, failure};
@@ -76,20 +77,6 @@ pub enum Lighting {
     Day,
     Night,
     Both,
-}
-
-/// Sample-count presets of the ray tracer.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum Quality {
-    /// The evaluator's render: one ray per pixel, irradiance at adaptive anchors every 4 px
-    /// (texture and edges at every pixel), every light traced; the fastest.
-    Evaluator,
-    /// One ray per pixel, shaded at every pixel; bounced light from the irradiance volume.
-    Preview,
-    /// 2x2 pixel samples; bounced light from the irradiance volume.
-    Standard,
-    /// 4x4 pixel samples; one final-gather bounce ray per sample over the volume.
-    High,
 }
 
 #[derive(Args, Debug)]
@@ -119,8 +106,8 @@ pub struct RenderArgs {
     /// Bin the sensor down to at most this width in pixels (keeps the field of view).
     #[arg(long)]
     pub max_width: Option<u32>,
-    #[arg(long, value_enum, default_value_t = Quality::Standard)]
-    pub quality: Quality,
+    #[arg(long, value_enum, default_value_t = QualityArg::Standard)]
+    pub quality: QualityArg,
     /// Also write each raw capture (`frame_kkkk_<lighting>_raw.png`, DN at the ADC depth; a
     /// colour sensor's Bayer mosaic).
     #[arg(long)]
@@ -332,12 +319,7 @@ pub fn run(args: &RenderArgs) -> Result<(), CliError> {
             (path::walk_views(&resolved, &walk, args.frames as usize), Some(walk))
         }
     };
-    let settings = match args.quality {
-        Quality::Evaluator => scene_gen::evaluate::eval_render_settings(),
-        Quality::Preview => RenderSettings::preview(),
-        Quality::Standard => RenderSettings::standard(),
-        Quality::High => RenderSettings::high(),
-    };
+    let settings = Quality::from(args.quality).settings();
     let groups: Vec<LightGroup> = match args.lighting {
         Lighting::Day => vec![LightGroup::Day],
         Lighting::Night => vec![LightGroup::Night],
