@@ -1,7 +1,8 @@
 """Dataset frames per second: `scene-gen dataset` against Mitsuba 3 rendering the same frames.
 
-Run through examples/mitsuba/run_dataset_speed.sh (it builds scene-gen, exports the house as OBJ
-and sets DRJIT_LIBLLVM_PATH). Both renderers make the same frames of one house, in one run:
+Run through examples/mitsuba/run_dataset_speed.sh (it builds scene-gen and sets
+DRJIT_LIBLLVM_PATH); the house goes to Mitsuba as scene-gen's OBJ export, written to OUT/obj once
+the options are checked. Both renderers make the same frames of one house, in one run:
 
 * scene-gen: `scene-gen dataset` (day and night images through the camera model, depth,
   instance and class masks, normals, COCO labels), run twice, for 1 frame and for `--frames`
@@ -106,7 +107,6 @@ def time_mitsuba(shapes, lights, views, spp, depth):
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--bin", required=True, help="the scene-gen binary")
-    ap.add_argument("--obj", required=True, help="scene.obj of the house (scene.json beside it)")
     ap.add_argument("--out", required=True)
     ap.add_argument("--seed", type=int, default=7)
     ap.add_argument("--camera", default="IMX273,focal_mm=3")
@@ -116,14 +116,19 @@ def main():
     args = ap.parse_args()
     if args.frames < 3:
         ap.error("--frames must be at least 3 (one to build the house, one to compile kernels)")
-    scene_json = os.path.join(os.path.dirname(args.obj), "scene.json")
-    for path in (args.obj, scene_json):
-        if not os.path.isfile(path):
-            ap.error(f"{path}: no such file (export the house with `scene-gen --format obj`)")
+    try:
+        depths = [int(d) for d in args.depths.split(",")]
+    except ValueError:
+        ap.error(f"--depths '{args.depths}': expected whole numbers, comma-separated")
+    if not os.access(args.bin, os.X_OK):
+        ap.error(f"--bin {args.bin}: not an executable")
     # Camera samples per pixel of each preset (RenderSettings: samples_per_axis squared).
     spp = {"evaluator": 1, "preview": 1, "standard": 4, "high": 16}[args.quality]
-    depths = [int(d) for d in args.depths.split(",")]
     os.makedirs(args.out, exist_ok=True)
+    obj = os.path.join(args.out, "obj", "scene.obj")
+    subprocess.run([args.bin, "--seed", str(args.seed), "--format", "obj", "--out", os.path.dirname(obj)],
+                   check=True, stdout=subprocess.DEVNULL)
+    scene_json = os.path.join(os.path.dirname(obj), "scene.json")
 
     one = run_scene_gen(args.bin, args, 1, os.path.join(args.out, "dataset_1"))
     many_dir = os.path.join(args.out, "dataset_n")
@@ -139,7 +144,7 @@ def main():
 
     lights = json.load(open(scene_json))["lights"]
     t0 = time.perf_counter()
-    shapes = house_shapes(args.obj, args.out)
+    shapes = house_shapes(obj, args.out)
     load_s = time.perf_counter() - t0
     for depth in depths:
         first, per_frame = time_mitsuba(shapes, lights, views, spp, depth)

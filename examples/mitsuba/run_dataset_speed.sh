@@ -10,11 +10,6 @@ out=${1:-/tmp/scene-gen-dataset-speed}
 shift || true
 export DRJIT_LIBLLVM_PATH=${DRJIT_LIBLLVM_PATH:-/usr/lib/x86_64-linux-gnu/libLLVM-19.so}
 cargo build --release --quiet --bin scene-gen
-rm -rf "$out"
-seed=7
-for ((i = 1; i <= $#; i++)); do [ "${!i}" = --seed ] && { j=$((i + 1)); seed=${!j}; }; done
-target/release/scene-gen --seed "$seed" --format obj --out "$out/obj" > /dev/null
 echo "load before: $(uptime)"
-.venv-mitsuba/bin/python examples/mitsuba/dataset_speed.py --bin target/release/scene-gen \
-    --obj "$out/obj/scene.obj" --out "$out" "$@"
+.venv-mitsuba/bin/python examples/mitsuba/dataset_speed.py --bin target/release/scene-gen --out "$out" "$@"
 echo "load after: $(uptime)"
