@@ -262,7 +262,20 @@ pub fn peaks_2d(img: &[f64], w: usize, h: usize, over: usize, top: usize) -> (Ve
     let (nfx, nfy) = (fx.len(), fy.len());
     let min_f = 2.0 / w.max(h) as f64;
     let mut on_grid: Vec<f64> = Vec::new();
-    let mut found = Vec::new();
+    // The `top` largest local maxima so far, largest first (earlier bins first among equals).
+    let mut found: Vec<(f64, f64, f64)> = Vec::with_capacity(top + 1);
+    // A bin is a local maximum when none of its 8 neighbours is larger.
+    let is_max = |k: usize, j: usize, v: f64| {
+        for kk in k.saturating_sub(1)..(k + 2).min(nfx) {
+            let column = &p[kk * nfy..(kk + 1) * nfy];
+            for (jj, &q) in column.iter().enumerate().take((j + 2).min(nfy)).skip(j.saturating_sub(1)) {
+                if (kk, jj) != (k, j) && q > v {
+                    return false;
+                }
+            }
+        }
+        true
+    };
     for k in 0..nfx {
         for j in 0..nfy {
             // Half-plane: fx > 0, or fx = 0 and fy > 0 (the rest mirrors it).
@@ -273,30 +286,20 @@ pub fn peaks_2d(img: &[f64], w: usize, h: usize, over: usize, top: usize) -> (Ve
             if k % over == 0 && j % over == 0 {
                 on_grid.push(v);
             }
-            let mut is_max = true;
-            for dk in -1i64..=1 {
-                for dj in -1i64..=1 {
-                    let (kk, jj) = (k as i64 + dk, j as i64 + dj);
-                    if (dk, dj) != (0, 0)
-                        && kk >= 0
-                        && jj >= 0
-                        && (kk as usize) < nfx
-                        && (jj as usize) < nfy
-                        && p[kk as usize * nfy + jj as usize] > v
-                    {
-                        is_max = false;
-                    }
-                }
-            }
-            if is_max {
-                found.push((v, fx[k], fy[j]));
+            let ranks = found.len() < top || found.last().is_some_and(|l| v > l.0);
+            if ranks && is_max(k, j, v) {
+                let at = found.iter().position(|f| v > f.0).unwrap_or(found.len());
+                found.insert(at, (v, fx[k], fy[j]));
+                found.truncate(top);
             }
         }
     }
-    found.sort_by(|a, b| b.0.total_cmp(&a.0));
-    found.truncate(top);
-    on_grid.sort_by(f64::total_cmp);
-    let median = on_grid.get(on_grid.len() / 2).copied().unwrap_or(0.0);
+    let median = if on_grid.is_empty() {
+        0.0
+    } else {
+        let mid = on_grid.len() / 2;
+        *on_grid.select_nth_unstable_by(mid, f64::total_cmp).1
+    };
     (found, median)
 }
 
@@ -519,9 +522,10 @@ fn waves(img: &[f64], w: usize, h: usize) -> (Vec<Peak>, Vec<(f64, f64)>) {
 /// least-squares sinusoid explains most of the image `r` (mean removed; golden-section searches along fx,
 /// fy, then fx again, over one bin of the 2x grid each way), and the fitted amplitude squared.
 /// On the grid alone a wave's frequency is off by up to half a bin, so a model built from it
-/// drifts out of phase across the frame and its removal leaves part of the wave behind.
+/// drifts out of phase across the frame and its removal leaves part of the wave behind. Each
+/// line search projects the image once on the fixed axis's wave ([`Projection`]), so a trial
+/// frequency costs one pass over a row or a column, not over the image.
 fn refine_wave(r: &[f64], w: usize, h: usize, fx: f64, fy: f64) -> (f64, f64, f64) {
-    let explained = |fx: f64, fy: f64| wave_fit(r, w, fx, fy).2;
     let golden = |lo: f64, hi: f64, f: &dyn Fn(f64) -> f64| -> f64 {
         let g = (5f64.sqrt() - 1.0) / 2.0;
         let (mut a, mut b) = (lo, hi);
@@ -541,46 +545,82 @@ fn refine_wave(r: &[f64], w: usize, h: usize, fx: f64, fy: f64) -> (f64, f64, f6
         0.5 * (a + b)
     };
     let (dx, dy) = (0.5 / w.max(1) as f64, 0.5 / h.max(1) as f64);
-    let mut x = golden(fx - dx, fx + dx, &|v| explained(v, fy));
-    let y = golden(fy - dy, fy + dy, &|v| explained(x, v));
-    x = golden(x - dx / 2.0, x + dx / 2.0, &|v| explained(v, y));
-    let (a, b, _) = wave_fit(r, w, x, y);
+    let at_fy = Projection::along_y(r, w, fy);
+    let mut x = golden(fx - dx, fx + dx, &|v| at_fy.fit(v).2);
+    let at_x = Projection::along_x(r, w, x);
+    let y = golden(fy - dy, fy + dy, &|v| at_x.fit(v).2);
+    let at_y = Projection::along_y(r, w, y);
+    x = golden(x - dx / 2.0, x + dx / 2.0, &|v| at_y.fit(v).2);
+    let (a, b, _) = at_y.fit(x);
     // The half-plane convention of the periodogram: fx >= 0.
     if x < 0.0 { (-x, -y, a * a + b * b) } else { (x, y, a * a + b * b) }
 }
 
-/// `(cos, sin)` of `2 pi (fx x + fy y)` for every pixel, row-major, from per-column and per-row
-/// tables (`w + h` sin_cos calls instead of `w h`; the product rule differs from the direct
-/// phase by rounding only).
-fn wave_table(w: usize, h: usize, fx: f64, fy: f64) -> Vec<(f64, f64)> {
+/// `(cos, sin)` of `2 pi f k` for `k` in `0..n`: one axis of a plane wave.
+fn wave_1d(n: usize, f: f64) -> Vec<(f64, f64)> {
     let tau = std::f64::consts::TAU;
-    let ex: Vec<(f64, f64)> = (0..w).map(|x| (tau * fx * x as f64).sin_cos()).map(|(s, c)| (c, s)).collect();
-    let ey: Vec<(f64, f64)> = (0..h).map(|y| (tau * fy * y as f64).sin_cos()).map(|(s, c)| (c, s)).collect();
-    let mut out = Vec::with_capacity(w * h);
-    for &(cy, sy) in &ey {
-        out.extend(ex.iter().map(|&(cx, sx)| (cx * cy - sx * sy, sx * cy + cx * sy)));
-    }
-    out
+    (0..n).map(|k| (tau * f * k as f64).sin_cos()).map(|(s, c)| (c, s)).collect()
 }
 
-/// Least-squares cosine and sine coefficients of a plane wave `(fx, fy)` in `r` (mean zero), and
-/// the variance it explains.
-fn wave_fit(r: &[f64], w: usize, fx: f64, fy: f64) -> (f64, f64, f64) {
-    let (mut cc, mut ss, mut cs, mut rc, mut rs) = (0.0, 0.0, 0.0, 0.0, 0.0);
-    for (v, &(c, s)) in r.iter().zip(wave_table(w, r.len() / w.max(1), fx, fy).iter()) {
-        cc += c * c;
-        ss += s * s;
-        cs += c * s;
-        rc += v * c;
-        rs += v * s;
+/// An image projected on one axis's wave: the image's sums against `cos` and `sin` of that
+/// axis's phase, one pair per line of the other axis, and the wave's own sums of squares along
+/// it. A plane wave `cos(t + p)` is `cos t cos p - sin t sin p`, so every sum a least-squares fit
+/// of it needs factors into these and the other axis's phases: a fit at any frequency of the
+/// other axis costs one pass over the projection.
+struct Projection {
+    /// Per line of the other axis: `(sum r cos t, sum r sin t)` along the projected axis.
+    sums: Vec<(f64, f64)>,
+    /// `(sum cos^2 t, sum sin^2 t, sum cos t sin t)` along the projected axis.
+    squares: (f64, f64, f64),
+}
+
+impl Projection {
+    fn squares(table: &[(f64, f64)]) -> (f64, f64, f64) {
+        table.iter().fold((0.0, 0.0, 0.0), |(a, b, x), &(c, s)| (a + c * c, b + s * s, x + c * s))
     }
-    let det = cc * ss - cs * cs;
-    if det.abs() < 1e-12 {
-        return (0.0, 0.0, 0.0);
+
+    /// `r` (`w` wide) projected along x on the wave of `fx`: one pair per row, fitted at a `fy`.
+    fn along_x(r: &[f64], w: usize, fx: f64) -> Projection {
+        let table = wave_1d(w, fx);
+        let sums = r
+            .chunks(w.max(1))
+            .map(|row| row.iter().zip(&table).fold((0.0, 0.0), |(p, q), (v, &(c, s))| (p + v * c, q + v * s)))
+            .collect();
+        Projection { sums, squares: Projection::squares(&table) }
     }
-    let a = (rc * ss - rs * cs) / det;
-    let b = (rs * cc - rc * cs) / det;
-    (a, b, a * rc + b * rs)
+
+    /// `r` (`w` wide) projected along y on the wave of `fy`: one pair per column, fitted at an `fx`.
+    fn along_y(r: &[f64], w: usize, fy: f64) -> Projection {
+        let h = r.len() / w.max(1);
+        let table = wave_1d(h, fy);
+        let mut sums = vec![(0.0, 0.0); w];
+        for (row, &(c, s)) in r.chunks(w.max(1)).zip(&table) {
+            sums.iter_mut().zip(row).for_each(|((p, q), v)| (*p, *q) = (*p + v * c, *q + v * s));
+        }
+        Projection { sums, squares: Projection::squares(&table) }
+    }
+
+    /// Least-squares cosine and sine coefficients of the plane wave whose other axis has the
+    /// frequency `f`, and the variance it explains.
+    fn fit(&self, f: f64) -> (f64, f64, f64) {
+        let (a2, b2, ab) = self.squares;
+        let (mut cc, mut ss, mut cs, mut rc, mut rs) = (0.0, 0.0, 0.0, 0.0, 0.0);
+        for (&(p, q), (co, so)) in self.sums.iter().zip(wave_1d(self.sums.len(), f)) {
+            let (c2, s2, x) = (co * co, so * so, co * so);
+            cc += c2 * a2 - 2.0 * x * ab + s2 * b2;
+            ss += c2 * b2 + 2.0 * x * ab + s2 * a2;
+            cs += (c2 - s2) * ab + x * (a2 - b2);
+            rc += co * p - so * q;
+            rs += co * q + so * p;
+        }
+        let det = cc * ss - cs * cs;
+        if det.abs() < 1e-12 {
+            return (0.0, 0.0, 0.0);
+        }
+        let a = (rc * ss - rs * cs) / det;
+        let b = (rs * cc - rc * cs) / det;
+        (a, b, a * rc + b * rs)
+    }
 }
 
 /// `r` minus its least-squares plane waves at `waves`, each frequency first refined on a grid of
@@ -592,20 +632,24 @@ pub fn remove_waves(r: &[f64], w: usize, h: usize, waves: &[(f64, f64)]) -> Vec<
     let mut out = r.to_vec();
     let (dx, dy) = (1.0 / (8.0 * w as f64), 1.0 / (8.0 * h as f64));
     for &(fx0, fy0) in waves {
-        let mut best = (f64::NEG_INFINITY, fx0, fy0);
-        for i in -2i32..=2 {
-            for j in -2i32..=2 {
-                let (fx, fy) = (fx0 + f64::from(i) * dx, fy0 + f64::from(j) * dy);
-                let explained = wave_fit(&out, w, fx, fy).2;
+        let mut best = (f64::NEG_INFINITY, fx0, fy0, 0.0, 0.0);
+        for j in -2i32..=2 {
+            let fy = fy0 + f64::from(j) * dy;
+            let at_fy = Projection::along_y(&out, w, fy);
+            for i in -2i32..=2 {
+                let fx = fx0 + f64::from(i) * dx;
+                let (a, b, explained) = at_fy.fit(fx);
                 if explained > best.0 {
-                    best = (explained, fx, fy);
+                    best = (explained, fx, fy, a, b);
                 }
             }
         }
-        let (_, fx, fy) = best;
-        let (a, b, _) = wave_fit(&out, w, fx, fy);
-        for (v, &(c, s)) in out.iter_mut().zip(&wave_table(w, h, fx, fy)) {
-            *v -= a * c + b * s;
+        let (_, fx, fy, a, b) = best;
+        // a cos(t + p) + b sin(t + p) = cos t (a cos p + b sin p) + sin t (b cos p - a sin p).
+        let table_x = wave_1d(w, fx);
+        for (row, (cy, sy)) in out.chunks_mut(w.max(1)).zip(wave_1d(h, fy)) {
+            let (u, v) = (a * cy + b * sy, b * cy - a * sy);
+            row.iter_mut().zip(&table_x).for_each(|(o, &(cx, sx))| *o -= cx * u + sx * v);
         }
     }
     out
