@@ -32,7 +32,7 @@ fn main() {
     let t0 = Instant::now();
     let measured = gap::load_acquisition(&desc, &options).unwrap();
     println!("load {:.3}s", t0.elapsed().as_secs_f64());
-    let model = gap::start_model(&desc, measured.bits, 1288).unwrap();
+    let model = gap::start_model(&desc, 1288).unwrap();
     let (w, h) = (measured.width, measured.height);
     let t0 = Instant::now();
     let t = stats::thresholds(&measured);

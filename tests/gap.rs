@@ -727,3 +727,60 @@ fn cli_reports_unexplained_misfit() {
     assert!(md.contains("Not tested (no replicates)."), "{md}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `remove_waves` fits each wave by least squares at the best of its refinement grid, from the
+/// image projected on one axis: a pure plane wave 1/8 and 2/8 of a bin off the given frequency,
+/// of any phase, is removed to rounding.
+#[test]
+fn remove_waves_takes_out_an_off_grid_plane_wave() {
+    let (w, h) = (96, 64);
+    let (fx0, fy0) = (0.1875, -0.09375);
+    let (fx, fy) = (fx0 + 1.0 / (8.0 * w as f64), fy0 - 2.0 / (8.0 * h as f64));
+    let img: Vec<f64> = (0..w * h)
+        .map(|i| {
+            let (x, y) = ((i % w) as f64, (i / w) as f64);
+            2.5 * (std::f64::consts::TAU * (fx * x + fy * y) + 0.7).cos()
+        })
+        .collect();
+    let left = stats::remove_waves(&img, w, h, &[(fx0, fy0)]);
+    let worst = left.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    assert!(worst < 1e-9, "left {worst} DN of a 2.5 DN wave");
+    // Off the grid by half a step the fit is the least-squares one of the nearest node: it
+    // removes most of the wave, not all of it.
+    let between = stats::remove_waves(&img, w, h, &[(fx0 + 0.5 / (8.0 * w as f64), fy0)]);
+    let rms = (between.iter().map(|v| v * v).sum::<f64>() / between.len() as f64).sqrt();
+    assert!(rms > 1e-6 && rms < 0.5, "half a step off: {rms} DN rms left");
+}
+
+/// The read-noise refit's expected dark-pair variance from the pixels' moments agrees with the
+/// variance of pixel-drawn dark pairs within their sampling error, and grows with the read
+/// noise's variance as `K^2` (the refit's secant lands in a step or two).
+#[test]
+fn pair_variance_from_moments_matches_drawn_pairs() {
+    let mut model = testdata::random_case(11, 2).model;
+    let e = &mut model.sensor.effects;
+    (e.black_level.enabled, e.black_level.offset_dn) = (true, 20.0);
+    (e.dsnu.enabled, e.dsnu.std_e) = (true, 3.0);
+    let mut layout = testdata::layout(&model);
+    (layout.width, layout.height) = (320, 240);
+    let dark = layout.blocks.iter().position(|b| b.frames.len() == 2 && b.light == gap::Light::Dark).unwrap();
+    let expected = gap::pair_variance_from_moments(&model, &layout, dark, 7).expect("dark rows clear 0 DN");
+    let n = (layout.width * layout.height) as f64;
+    let seeds = 6u64;
+    let mut drawn = 0.0;
+    for seed in 0..seeds {
+        let sim = gap::simulate_acquisition(&model, &layout, seed, Some(&[dark]));
+        let b = &sim.blocks[dark];
+        let d: Vec<f64> = b.frames[0].iter().zip(&b.frames[1]).map(|(&x, &y)| f64::from(x) - f64::from(y)).collect();
+        let md = d.iter().sum::<f64>() / n;
+        drawn += d.iter().map(|v| (v - md) * (v - md)).sum::<f64>() / (n - 1.0) / 2.0 / seeds as f64;
+    }
+    let sd = expected * (2.0 / (n * seeds as f64)).sqrt();
+    assert!((drawn - expected).abs() < 4.0 * sd, "drawn {drawn} DN^2, moments {expected} ({sd} sd)");
+    let k = model.sensor.system_gain_dn_per_e;
+    let mut louder = model.clone();
+    louder.sensor.read_noise_e = (model.sensor.read_noise_e.powi(2) + 4.0).sqrt();
+    let more = gap::pair_variance_from_moments(&louder, &layout, dark, 7).unwrap();
+    let slope = (more - expected) / (4.0 * k * k);
+    assert!((slope - 1.0).abs() < 0.01, "{expected} -> {more} DN^2 at K {k}: {slope} K^2 per e-^2");
+}

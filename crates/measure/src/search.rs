@@ -67,6 +67,12 @@ pub trait Problem {
     /// Simulates `model` and scores it against the measurement.
     fn simulate(&self, model: &Self::Model) -> Self::Sim;
 
+    /// Simulates `models` (a round's proposals that are simulated in full), in their order;
+    /// a problem whose simulations leave cores idle runs them side by side.
+    fn simulate_all(&self, models: &[&Self::Model]) -> Vec<Self::Sim> {
+        models.iter().map(|m| self.simulate(m)).collect()
+    }
+
     /// Total chi-square of a simulation against the measurement.
     fn chi2(sim: &Self::Sim) -> f64;
 
@@ -196,11 +202,14 @@ pub fn greedy<P: Problem + 'static>(problem: &mut P, start: P::Model) -> Outcome
         let (full, screened_drops) = screen(problem, &model, &proposals);
         let chi2 = P::chi2(&sim);
         let first = trials.len();
+        let unsimulated: Vec<&P::Model> =
+            proposals.iter().zip(&full).filter(|(p, f)| **f && p.sim.is_none()).map(|(p, _)| &p.model).collect();
+        let mut simulated = problem.simulate_all(&unsimulated).into_iter();
         let mut best: Option<usize> = None;
         for (i, p) in proposals.into_iter().enumerate() {
             let penalty = p.effect.penalty_factor() * p.effect.param_count(&p.model) as f64 * ln_n;
             let (chi2_drop, full_sim) = if full[i] {
-                let s = p.sim.unwrap_or_else(|| problem.simulate(&p.model));
+                let s = p.sim.or_else(|| simulated.next()).expect("simulate_all gives one simulation per model");
                 (chi2 - P::chi2(&s), Some(s))
             } else {
                 (screened_drops[i], None)

@@ -14,6 +14,7 @@ use crate::search::{self, Effect, Problem};
 use rayon::prelude::*;
 use scene_gen_camera::sensor::{SensorModel, noise};
 use std::sync::{Mutex, MutexGuard, PoisonError};
+use std::time::Instant;
 
 /// Factor on the BIC penalty of an effect whose evidence is a tail count (`hot_pixels`): its
 /// statistics are Poisson counts scored by their likelihood deviance
@@ -817,6 +818,11 @@ struct Counts {
     windows: usize,
     /// One-pair simulations of the read-noise refits.
     dark_pairs: usize,
+    /// Seconds spent in each kind (summed over the threads that ran them side by side):
+    /// full simulations with their statistics, screening windows, one-pair simulations.
+    full_s: f64,
+    windows_s: f64,
+    dark_pairs_s: f64,
 }
 
 /// A cached evaluation: model, group gains (dB), statistics and gap.
@@ -840,7 +846,7 @@ impl Evaluator {
             lock(&self.counts).cached += 1;
             return r;
         }
-        lock(&self.counts).full += 1;
+        let started = Instant::now();
         let sim = self.simulate(model, self.seed, None);
         let mut s = stats::compute(&sim, &self.t);
         drop(sim);
@@ -850,6 +856,11 @@ impl Evaluator {
         }
         s.thresholds = Some(self.t);
         let g = stats::gap(&self.m, &s);
+        {
+            let mut counts = lock(&self.counts);
+            counts.full += 1;
+            counts.full_s += started.elapsed().as_secs_f64();
+        }
         let mut cache = lock(&self.cache);
         cache.insert(0, (model.clone(), self.layout.gains_db.clone(), s.clone(), g.clone()));
         cache.truncate(EVAL_CACHE);
@@ -871,15 +882,30 @@ impl Evaluator {
         s
     }
 
-    /// Temporal variance of the simulated first dark pair.
+    /// Temporal variance of the simulated first dark pair: expected from its pixels' moments
+    /// where the search draws it from them ([`super::pair_variance_from_moments`]), else of
+    /// its simulation.
     fn dark_var(&self, model: &GapModel) -> f64 {
-        lock(&self.counts).dark_pairs += 1;
+        let started = Instant::now();
+        let from_moments = (self.draws.get(self.dark_pair) == Some(&Draws::Moments))
+            .then(|| super::pair_variance_from_moments(model, &self.layout, self.dark_pair, self.seed))
+            .flatten();
+        if let Some(var) = from_moments {
+            let mut counts = lock(&self.counts);
+            counts.dark_pairs += 1;
+            counts.dark_pairs_s += started.elapsed().as_secs_f64();
+            return var;
+        }
         let sim = self.simulate(model, self.seed, Some(&[self.dark_pair]));
         let b = &sim.blocks[self.dark_pair];
         let n = b.frames[0].len() as f64;
         let d: Vec<f64> = b.frames[0].iter().zip(&b.frames[1]).map(|(&x, &y)| f64::from(x) - f64::from(y)).collect();
         let md = d.iter().sum::<f64>() / n;
-        d.iter().map(|v| (v - md) * (v - md)).sum::<f64>() / (n - 1.0) / 2.0
+        let var = d.iter().map(|v| (v - md) * (v - md)).sum::<f64>() / (n - 1.0) / 2.0;
+        let mut counts = lock(&self.counts);
+        counts.dark_pairs += 1;
+        counts.dark_pairs_s += started.elapsed().as_secs_f64();
+        var
     }
 
     /// Refits the read noise so the simulated dark-pair variance matches the measured one
@@ -993,12 +1019,38 @@ impl Evaluator {
     }
 }
 
+/// The gain of a polishing pass below which polishing stops, at a chi-square of `chi2`: 1, or a
+/// ten-thousandth of the chi-square where that is larger. A large chi-square means large effects
+/// are still missing, and the next round adds one of them (its drop is of the order of the
+/// chi-square); refits that move it by tens leave that choice as it is, and near the end,
+/// where the chi-square is of the order of the number of statistics, the threshold is 1.
+fn polish_enough(chi2: f64) -> f64 {
+    (1e-4 * chi2).max(1.0)
+}
+
 /// Frames of at least this many rows have their candidates screened (see `Screen`). Below it
 /// (the hidden-effect sets, the 160x120 crop of set 003) every candidate is simulated in full.
 pub const SCREEN_MIN_ROWS: usize = 240;
 
-/// Candidates per round simulated in full after screening: the largest screened drops.
+/// Most candidates per round simulated in full after screening: the largest screened drops
+/// (fewer where the others' drops fall below [`SCREEN_KEEP_FRACTION`] of the best).
 pub const SCREEN_KEEP: usize = 3;
+
+/// A screened candidate whose drop on the window is below this fraction of the round's largest
+/// is not simulated in full: the window's drops follow the full ones to well within this factor
+/// (they are about a quarter of them), so it cannot be the round's best.
+pub const SCREEN_KEEP_FRACTION: f64 = 0.1;
+
+/// How many of a round's screened candidates, ranked by their window drops `drops`, are
+/// simulated in full: those within [`SCREEN_KEEP_FRACTION`] of the largest drop, at most
+/// [`SCREEN_KEEP`] and at least one; all [`SCREEN_KEEP`] when no drop is positive.
+fn screen_keep(drops: &[f64]) -> usize {
+    let best = drops.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    if best <= 0.0 {
+        return SCREEN_KEEP;
+    }
+    drops.iter().filter(|&&d| d >= SCREEN_KEEP_FRACTION * best).count().clamp(1, SCREEN_KEEP)
+}
 
 /// Screening: the chi-square of a model on the top `1 / 4` of the sensor's rows, against the
 /// measured statistics of the same rows. The window draws what the full simulation draws for
@@ -1025,12 +1077,17 @@ impl Screen {
         if let Some((_, _, c)) = lock(&self.cache).iter().find(|(m, g, _)| m == model && *g == ev.layout.gains_db) {
             return *c;
         }
-        lock(&ev.counts).windows += 1;
+        let started = Instant::now();
         let sim = simulate_rows(model, &ev.layout, ev.seed, None, self.rows, &ev.draws);
         let mut s = stats::compute(&sim, &ev.t);
         expect_dark_tails(&mut s, model, &ev.t);
         s.thresholds = Some(ev.t);
         let c = stats::gap(&self.m, &s).chi2_total;
+        {
+            let mut counts = lock(&ev.counts);
+            counts.windows += 1;
+            counts.windows_s += started.elapsed().as_secs_f64();
+        }
         let mut cache = lock(&self.cache);
         cache.insert(0, (model.clone(), ev.layout.gains_db.clone(), c));
         cache.truncate(2);
@@ -1063,6 +1120,11 @@ impl Problem for GapProblem {
 
     fn simulate(&self, model: &GapModel) -> GapSim {
         self.ev.eval(model)
+    }
+
+    /// Side by side, as the screened candidates ([`GapProblem::screen`]).
+    fn simulate_all(&self, models: &[&GapModel]) -> Vec<GapSim> {
+        models.par_iter().map(|m| self.ev.eval(m)).collect()
     }
 
     fn chi2((_, g): &GapSim) -> f64 {
@@ -1098,18 +1160,21 @@ impl Problem for GapProblem {
     }
 
     /// Ranks a round's proposals by their drop on the top rows when there are more than
-    /// [`SCREEN_KEEP`] of them. The proposals are simulated side by side: each simulation
-    /// runs its rows in parallel, but its statistics and set-up leave cores idle.
+    /// [`SCREEN_KEEP`] of them, and keeps the best within [`SCREEN_KEEP_FRACTION`] of the largest. The proposals are
+    /// simulated side by side: each simulation runs its rows in parallel, but its statistics
+    /// and set-up leave cores idle.
     fn screen(&self, model: &GapModel, proposals: &[GapModel]) -> Option<(Vec<f64>, usize)> {
         let sc = self.screen.as_ref().filter(|_| proposals.len() > SCREEN_KEEP)?;
         let base = sc.chi2(&self.ev, model);
-        Some((proposals.par_iter().map(|p| base - sc.chi2(&self.ev, p)).collect(), SCREEN_KEEP))
+        let drops: Vec<f64> = proposals.par_iter().map(|p| base - sc.chi2(&self.ev, p)).collect();
+        let keep = screen_keep(&drops);
+        Some((drops, keep))
     }
 
     /// Refits the responsivity and the linear model (with `refine`), the group gains and every
     /// effect in the model against the new residuals, each kept only if it lowers the
-    /// chi-square, until a pass gains less than 1 (closed forms are only approximate where frames
-    /// clip at 0 DN or at the ADC limit).
+    /// chi-square, until a pass gains less than 1 or a ten-thousandth of the chi-square (closed
+    /// forms are only approximate where frames clip at 0 DN or at the ADC limit).
     fn polish(&mut self, _: &[&'static str], model: GapModel, sim: GapSim) -> (GapModel, GapSim) {
         let simulations_before = lock(&self.ev.counts).full;
         let polished =
@@ -1151,7 +1216,7 @@ impl GapProblem {
                     (model, s, g) = (p, ps, pg);
                 }
             }
-            if before - g.chi2_total < 1.0 {
+            if before - g.chi2_total < polish_enough(before) {
                 break;
             }
         }
@@ -1171,7 +1236,8 @@ impl GapProblem {
             }
             let start = model.clone();
             let Some(sc) = self.screen.as_ref() else { break };
-            let mut best = sc.chi2(&self.ev, &model);
+            let window_start = sc.chi2(&self.ev, &model);
+            let mut best = window_start;
             let mut consider = |p: GapModel, model: &mut GapModel| {
                 let c = sc.chi2(&self.ev, &p);
                 if c < best {
@@ -1195,7 +1261,11 @@ impl GapProblem {
                 let Some((p, _)) = self.propose(effect, &model, &current) else { continue };
                 consider(p, &mut model);
             }
-            if model == start {
+            // A pass whose refits gain less on the window than its share of the stopping
+            // threshold would not pass it in full either: it ends polishing unsimulated.
+            let share = sc.rows as f64 / self.ev.layout.height.max(1) as f64;
+            if model == start || window_start - best < share * polish_enough(g.chi2_total) {
+                model = start;
                 break;
             }
             let (ps, pg) = self.ev.eval(&model);
@@ -1204,7 +1274,7 @@ impl GapProblem {
                 break;
             }
             (s, g) = (ps, pg);
-            if before - g.chi2_total < 1.0 {
+            if before - g.chi2_total < polish_enough(before) {
                 break;
             }
         }
@@ -1284,19 +1354,24 @@ pub fn search(
     let gains_db = ev.layout.gains_db.clone();
     let counts = *lock(&ev.counts);
     log::info!(
-        "gap search: {} full simulations ({} answered from the cache), {} screening windows, {} one-pair \
-         read-noise simulations, then {} replicates",
+        "gap search: {} full simulations ({:.1} s; {} answered from the cache), {} screening windows ({:.1} s), \
+         {} one-pair read-noise simulations ({:.1} s), then {} replicates",
         counts.full,
+        counts.full_s,
         counts.cached,
         counts.windows,
+        counts.windows_s,
         counts.dark_pairs,
+        counts.dark_pairs_s,
         options.replicates
     );
     let (simulations, cached_evaluations) = (counts.full, counts.cached);
     let misfit = (options.replicates > 0).then(|| {
         // Side by side, as the screened candidates (`GapProblem::screen`).
+        let started = Instant::now();
         let replicates: Vec<Stats> =
             (0..options.replicates).into_par_iter().map(|i| ev.replicate(&outcome.model, i)).collect();
+        log::info!("gap replicates: {:.1} s", started.elapsed().as_secs_f64());
         misfit::check(&ev.m, &final_stats, &gap_final, &replicates)
     });
     if let Some(m) = &misfit {
@@ -1353,5 +1428,22 @@ fn step(a: &search::Accepted<GapModel, GapSim>) -> Step {
             if improved.is_empty() { "no family improved by more than 1".to_string() } else { improved.join(", ") }
         ),
         entangled: Vec::new(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn screening_keeps_the_candidates_near_the_best() {
+        // Within a tenth of the best: two of four.
+        assert_eq!(screen_keep(&[1000.0, 150.0, 99.0, -5.0]), 2);
+        // Far ahead: the best alone.
+        assert_eq!(screen_keep(&[24245.0, 259.0, 1504.0, 0.0]), 1);
+        // Close together: no more than SCREEN_KEEP.
+        assert_eq!(screen_keep(&[10.0, 9.0, 8.0, 7.0, 6.0]), SCREEN_KEEP);
+        // Nothing gains on the window: the window decides nothing.
+        assert_eq!(screen_keep(&[-3.0, -1.0, 0.0, -8.0]), SCREEN_KEEP);
     }
 }

@@ -57,9 +57,12 @@
 //! ([`fit`]: an unchanged model is not simulated again) and the last fixed patterns; and on
 //! frames of 240 rows or more the candidates of a round are screened on the top quarter of the
 //! rows (bit for bit the full simulation's rows, [`simulate_rows`]) and only the best
-//! [`fit::SCREEN_KEEP`] simulated in full ([`GapOptions::screen`]), and the refits that polish
-//! the model after each addition are judged on the same window, one full simulation per pass;
-//! docs/BENCHMARKS.md has the figures.
+//! [`fit::SCREEN_KEEP`] within [`fit::SCREEN_KEEP_FRACTION`] of the best window drop simulated
+//! in full, side by side ([`GapOptions::screen`]), and the refits that polish the model after
+//! each addition are judged on the same window, one full simulation per pass (none for a pass
+//! whose window gain could not pass the stopping threshold). The read-noise refit matches the
+//! dark pair's expected variance from its pixels' moments where they describe it
+//! ([`pair_variance_from_moments`]). docs/BENCHMARKS.md has the figures.
 //!
 //! Inputs ([`run_inputs`]): one descriptor; several descriptors of one camera at different gains
 //! (gain groups; the gains are measured from the response, [`load_acquisitions`]), where
@@ -229,8 +232,10 @@ pub fn load_acquisition(path: &Path, options: &GapOptions) -> Result<Acquisition
             }
         }
         let take = if pair { 2 } else { options.max_stack_frames.unwrap_or(usize::MAX).max(2) };
-        let frames =
-            b.images.iter().take(take).map(|p| emva::load_image(p, w, h, bits)).collect::<Result<Vec<_>, _>>()?;
+        // Decoded side by side; the first unreadable image in descriptor order is the error.
+        let frames: Vec<Result<Vec<f32>, EmvaError>> =
+            b.images[..take.min(b.images.len())].par_iter().map(|p| emva::load_image(p, w, h, bits)).collect();
+        let frames = frames.into_iter().collect::<Result<Vec<_>, _>>()?;
         blocks.push(Block { light, exposure_s: b.exposure_s(), group: 0, frames, average: None, pair: None });
     }
     Ok(Acquisition { width: w as usize, height: h as usize, bits, blocks, gains_db: vec![0.0] })
@@ -378,35 +383,23 @@ pub fn simulate_rows(
 ) -> Acquisition {
     let (w, full_h) = (layout.width, layout.height);
     let h = rows.min(full_h);
-    let mut sensor = model.sensor.clone();
-    sensor.adc_bits = layout.bits;
+    let sensor = layout_sensor(model, layout);
     let pattern = fixed_pattern(&sensor, w, h);
-    let falloff = model.optics.illumination_falloff;
-    let r2 = falloff.enabled.then(|| {
-        let mut r2 = radius2_map(w, full_h);
-        r2.truncate(w * h);
-        r2
-    });
-    let photon_map = |p: f64| -> Vec<f32> {
-        match &r2 {
-            Some(r2) => r2.iter().map(|r| (p * (1.0 - falloff.corner_loss_fraction * r)).max(0.0) as f32).collect(),
-            None => vec![p as f32; w * h],
-        }
-    };
+    let photon_map = PhotonMap::new(model, layout, h);
     // The per-pixel constants of the moments, from the first block drawn by them.
     let constants = std::sync::OnceLock::new();
     // Pairs whose pixels the statistics read, not only their sums.
     let read_frames = stats::correlation_pairs(layout);
     let blocks = layout
         .blocks
-        .iter()
+        .par_iter()
         .enumerate()
         .map(|(bi, b)| {
             let (light, exposure_s, group) = (b.light, b.exposure_s, b.group);
             if which.is_some_and(|s| !s.contains(&bi)) {
                 return Block::layout(light, exposure_s, group, 0);
             }
-            let photons = photon_map(light.photons());
+            let photons = photon_map.at(light.photons());
             let gain_db = layout.gains_db.get(group).copied().unwrap_or(0.0);
             let seeds: Vec<u64> = (0..b.frames.len()).map(|fi| frame_seed(seed, bi, fi)).collect();
             if seeds.is_empty() || draws.get(bi).copied().unwrap_or_default() == Draws::Pixels {
@@ -422,18 +415,81 @@ pub fn simulate_rows(
             let sims: Vec<FrameSimulator> =
                 seeds.iter().map(|&s| sensor.frame_simulator(&pattern, exposure_s, gain_db, s)).collect();
             let constants = constants.get_or_init(|| sims[0].pixel_constants());
-            let moments = BlockMoments::of(&sims[0], constants, &photons, w);
             let layout = Block::layout(light, exposure_s, group, sims.len());
+            if sims.len() == 2
+                && !read_frames.contains(&Some(bi))
+                && let Some(sums) = PairMoments::of(&sims[0], constants, &photons, w)
+            {
+                return Block { pair: Some(moment_pair(&sims[0], &sums, seeds[0], w)), ..layout };
+            }
+            let moments = BlockMoments::of(&sims[0], constants, &photons, w);
             if sims.len() > 2 {
                 Block { average: Some(moment_stack(&sims, &moments, &photons, seeds[0], w)), ..layout }
-            } else if !read_frames.contains(&Some(bi)) && moments.described.iter().all(|&d| d) {
-                Block { pair: Some(moment_pair(&sims[0], &moments, seeds[0], w)), ..layout }
             } else {
                 Block { frames: moment_frames(&sims, &moments, &photons, &seeds, w), ..layout }
             }
         })
         .collect();
     Acquisition { width: w, height: h, bits: layout.bits, blocks, gains_db: layout.gains_db.clone() }
+}
+
+/// The model's sensor with the layout's ADC depth.
+fn layout_sensor(model: &GapModel, layout: &Acquisition) -> SensorModel {
+    let mut sensor = model.sensor.clone();
+    sensor.adc_bits = layout.bits;
+    sensor
+}
+
+/// Mean photons per pixel of the first `rows` rows of a frame: uniform, or shaded by the
+/// model's illumination fall-off (the full sensor's map, cut to the rows).
+struct PhotonMap {
+    falloff: IlluminationFalloff,
+    /// Squared radius of each pixel, where the fall-off is on.
+    r2: Option<Vec<f64>>,
+    pixels: usize,
+}
+
+impl PhotonMap {
+    fn new(model: &GapModel, layout: &Acquisition, rows: usize) -> PhotonMap {
+        let (w, h) = (layout.width, rows.min(layout.height));
+        let falloff = model.optics.illumination_falloff;
+        let r2 = falloff.enabled.then(|| {
+            let mut r2 = radius2_map(w, layout.height);
+            r2.truncate(w * h);
+            r2
+        });
+        PhotonMap { falloff, r2, pixels: w * h }
+    }
+
+    /// The map at `photons` on the axis.
+    fn at(&self, photons: f64) -> Vec<f32> {
+        match &self.r2 {
+            Some(r2) => {
+                r2.iter().map(|r| (photons * (1.0 - self.falloff.corner_loss_fraction * r)).max(0.0) as f32).collect()
+            }
+            None => vec![photons as f32; self.pixels],
+        }
+    }
+}
+
+/// The expected temporal variance of pair `block` of `layout` under `model`, DN^2 (half the
+/// variance of the frames' difference): its pixels' mean output variance plus the row offset's,
+/// from their moments ([`FrameSimulator::row_moments`]). `None` where a row is not described by
+/// its moments; then only a pixel-drawn pair tells. The read-noise refit matches this to the
+/// measured dark pair: it is linear in the read noise's variance, so the refit's secant ends in
+/// a step or two, where a simulated pair would need a simulation each.
+#[must_use]
+pub fn pair_variance_from_moments(model: &GapModel, layout: &Acquisition, block: usize, seed: u64) -> Option<f64> {
+    let b = layout.blocks.get(block)?;
+    let (w, h) = (layout.width, layout.height);
+    let sensor = layout_sensor(model, layout);
+    let pattern = fixed_pattern(&sensor, w, h);
+    let gain_db = layout.gains_db.get(b.group).copied().unwrap_or(0.0);
+    let sim = sensor.frame_simulator(&pattern, b.exposure_s, gain_db, frame_seed(seed, block, 0));
+    let photons = PhotonMap::new(model, layout, h).at(b.light.photons());
+    let sums = PairMoments::of(&sim, &sim.pixel_constants(), &photons, w)?;
+    let sum_v: f64 = sums.rows.iter().map(|r| r[2]).sum();
+    Some(sum_v / (w * h).max(1) as f64 + sim.row_offset_sd_dn().powi(2))
 }
 
 /// The fixed patterns of `sensor` at `w x h`, from a cache of the last few: a search's
@@ -546,52 +602,114 @@ fn moment_stack(sims: &[FrameSimulator], moments: &BlockMoments, photons: &[f32]
     out
 }
 
+/// Rows of a pair's moments summed at a time by [`PairMoments::of`]: a chunk's column sums
+/// are its own, added in chunk order, so the sums do not depend on the thread count.
+const PAIR_ROWS_PER_CHUNK: usize = 16;
+
+/// What [`moment_pair`] reads of a block's pixel moments: per row the sum of the means, their
+/// sum of squares about the row's mean, the sum of the variances and of their squares; per
+/// column the sums of the means and of the variances. Summed row by row as the moments are
+/// computed, so a pair costs one pass over its pixel constants and no per-pixel image.
+struct PairMoments {
+    rows: Vec<[f64; 4]>,
+    col_m: Vec<f64>,
+    col_v: Vec<f64>,
+}
+
+impl PairMoments {
+    /// The sums of the block of `photons`; `None` when a row is not described by its moments
+    /// ([`FrameSimulator::row_moments`]), and the pair is drawn pixel by pixel.
+    fn of(sim: &FrameSimulator, constants: &PixelConstants, photons: &[f32], w: usize) -> Option<PairMoments> {
+        let w = w.max(1);
+        let chunk = w * PAIR_ROWS_PER_CHUNK;
+        let chunks: Vec<Option<PairMoments>> = photons
+            .par_chunks(chunk)
+            .enumerate()
+            .map(|(ci, ph)| {
+                let (mut mean, mut var) = (vec![0.0; w], vec![0.0; w]);
+                let mut sums = PairMoments { rows: Vec::new(), col_m: vec![0.0; w], col_v: vec![0.0; w] };
+                for (j, row) in ph.chunks(w).enumerate() {
+                    if !sim.row_moments(constants, ci * PAIR_ROWS_PER_CHUNK + j, row, &mut mean, &mut var) {
+                        return None;
+                    }
+                    sums.rows.push(row_sums(&mean, &var));
+                    sums.col_m.iter_mut().zip(&mean).for_each(|(c, x)| *c += x);
+                    sums.col_v.iter_mut().zip(&var).for_each(|(c, v)| *c += v);
+                }
+                Some(sums)
+            })
+            .collect();
+        let mut all =
+            PairMoments { rows: Vec::with_capacity(photons.len() / w), col_m: vec![0.0; w], col_v: vec![0.0; w] };
+        for c in chunks {
+            let c = c?;
+            all.rows.extend(c.rows);
+            all.col_m.iter_mut().zip(&c.col_m).for_each(|(a, x)| *a += x);
+            all.col_v.iter_mut().zip(&c.col_v).for_each(|(a, x)| *a += x);
+        }
+        Some(all)
+    }
+}
+
+/// `[sum m, sum (m - mean m)^2, sum v, sum v^2]` of one row's pixel means `m` and variances
+/// `v`: one pass over four interleaved lanes (independent additions), the means taken about
+/// the row's first so that the sum of squares does not cancel.
+fn row_sums(mean: &[f64], var: &[f64]) -> [f64; 4] {
+    const LANES: usize = 4;
+    let Some(&m0) = mean.first() else { return [0.0; 4] };
+    let mut lanes = [[0.0f64; LANES]; 4];
+    let (m_chunks, v_chunks) = (mean.chunks_exact(LANES), var.chunks_exact(LANES));
+    let (m_tail, v_tail) = (m_chunks.remainder(), v_chunks.remainder());
+    for (m, v) in m_chunks.zip(v_chunks) {
+        for l in 0..LANES {
+            let d = m[l] - m0;
+            lanes[0][l] += d;
+            lanes[1][l] += d * d;
+            lanes[2][l] += v[l];
+            lanes[3][l] += v[l] * v[l];
+        }
+    }
+    let mut sums = lanes.map(|l| l.iter().sum::<f64>());
+    for (m, v) in m_tail.iter().zip(v_tail) {
+        let d = m - m0;
+        sums[0] += d;
+        sums[1] += d * d;
+        sums[2] += v;
+        sums[3] += v * v;
+    }
+    let n = mean.len() as f64;
+    [n * m0 + sums[0], (sums[1] - sums[0] * sums[0] / n).max(0.0), sums[2], sums[3]]
+}
+
 /// The statistics of a temporal pair drawn by [`Draws::Moments`], every row of it described by
 /// its moments, without drawing its pixels: what [`stats`] reads of a pair are its row and
 /// column means and its sums of squares, and with each pixel Gaussian about its moments these
-/// are drawn directly. Per row, from `rng::substream(seed, "gap/moment-pair", 0)` in row
-/// order: the two frames' row offsets, the noise of the row's sum of the average and of the
-/// difference (Gaussian, of variance `sum v / 2` and `sum v`), and the spread of the
-/// difference about its row mean (`sum v (1 - 1 / w)`, variance `2 sum v^2`: a sum of `w`
-/// weighted chi-squares, Gaussian to `O(w^-1/2)`); then the noise of each column's mean. The
-/// sums of squares of the average and the fourth moment of the difference, which only size
-/// sampling variances, are their expectations. A row's draws are the same whatever the
-/// model, so candidates keep their common random numbers.
-fn moment_pair(sim: &FrameSimulator, moments: &BlockMoments, seed: u64, w: usize) -> stats::PairStats {
+/// are drawn directly from the sums of its pixels' moments ([`PairMoments`]). Per row, from
+/// `rng::substream(seed, "gap/moment-pair", 0)` in row order: the two frames' row offsets, the
+/// noise of the row's sum of the average and of the difference (Gaussian, of variance
+/// `sum v / 2` and `sum v`), and the spread of the difference about its row mean
+/// (`sum v (1 - 1 / w)`, variance `2 sum v^2`: a sum of `w` weighted chi-squares, Gaussian to
+/// `O(w^-1/2)`); then the noise of each column's mean. The sums of squares of the average and
+/// the fourth moment of the difference, which only size sampling variances, are their
+/// expectations. A row's draws are the same whatever the model, so candidates keep their
+/// common random numbers.
+fn moment_pair(sim: &FrameSimulator, sums: &PairMoments, seed: u64, w: usize) -> stats::PairStats {
     let w = w.max(1);
-    let (wf, h) = (w as f64, moments.mean.len() / w);
-    // Per row: sum of the means, their sum of squares about the row's mean, sum of the
-    // variances and of their squares.
-    let rows: Vec<[f64; 4]> = moments
-        .mean
-        .par_chunks(w)
-        .zip(moments.sd.par_chunks(w))
-        .map(|(m, sd)| {
-            let sum_m: f64 = m.iter().sum();
-            let row_mean = sum_m / wf;
-            let ss_m = m.iter().map(|x| (x - row_mean) * (x - row_mean)).sum();
-            let (sum_v, sum_v2) = sd.iter().fold((0.0, 0.0), |(a, b), s| (a + s * s, b + s.powi(4)));
-            [sum_m, ss_m, sum_v, sum_v2]
-        })
-        .collect();
-    let (mut col_m, mut col_v) = (vec![0.0; w], vec![0.0; w]);
-    for (m, sd) in moments.mean.chunks(w).zip(moments.sd.chunks(w)) {
-        col_m.iter_mut().zip(m).for_each(|(c, x)| *c += x);
-        col_v.iter_mut().zip(sd).for_each(|(c, s)| *c += s * s);
-    }
+    let (wf, h) = (w as f64, sums.rows.len());
+    let (rows, col_m, col_v) = (&sums.rows, &sums.col_m, &sums.col_v);
     let mut rng = rng::substream(seed, "gap/moment-pair", 0);
     let mut z = || standard_normal(&mut rng);
     let row_sd = sim.row_offset_sd_dn();
     let (mut row_avg, mut row_diff, mut spread) = (Vec::with_capacity(h), Vec::with_capacity(h), Vec::with_capacity(h));
     let mut offsets = 0.0;
-    for &[sum_m, _, sum_v, sum_v2] in &rows {
+    for &[sum_m, _, sum_v, sum_v2] in rows {
         let (o1, o2) = (row_sd * z(), row_sd * z());
         offsets += 0.5 * (o1 + o2);
         row_avg.push((sum_m + (0.5 * sum_v).sqrt() * z()) / wf + 0.5 * (o1 + o2));
         row_diff.push((o1 - o2) / std::f64::consts::SQRT_2 + sum_v.sqrt() * z() / wf);
         spread.push((sum_v * (1.0 - 1.0 / wf) + (2.0 * sum_v2).sqrt() * z()).max(0.0));
     }
-    let col_avg = col_m.iter().zip(&col_v).map(|(m, v)| (m + offsets + (0.5 * v).sqrt() * z()) / h as f64).collect();
+    let col_avg = col_m.iter().zip(col_v).map(|(m, v)| (m + offsets + (0.5 * v).sqrt() * z()) / h as f64).collect();
     let (m, md) = (stats::mean(&row_avg), stats::mean(&row_diff));
     let (mut s2a, mut s2d, mut s4d) = (0.0, 0.0, 0.0);
     for (((&[_, ss_m, sum_v, sum_v2], a), d), q) in rows.iter().zip(&row_avg).zip(&row_diff).zip(&spread) {
@@ -626,12 +744,12 @@ impl Acquisition {
     }
 }
 
-/// The start model: the EMVA 1288 linear model of the calibration (K, QE, read noise), every
-/// effect off but quantization.
-pub fn start_model(path: &Path, bits: u32, seed: u64) -> Result<GapModel, GapError> {
+/// The start model: the EMVA 1288 linear model of the calibration (K, QE, read noise) at the
+/// descriptor's bit depth, every effect off but quantization.
+pub fn start_model(path: &Path, seed: u64) -> Result<GapModel, GapError> {
     let cal = calibration::calibrate_emva(path)?;
     let mut sensor = cal.to_sensor_model("measured", seed);
-    sensor.adc_bits = bits;
+    sensor.adc_bits = cal.adc_bits.unwrap_or(sensor.adc_bits);
     let q = sensor.effects.quantization;
     sensor.effects = scene_gen_camera::sensor::noise::Effects { quantization: q, ..Default::default() };
     sensor.effects.quantization.enabled = true;
@@ -807,7 +925,17 @@ pub fn run_inputs(paths: &[PathBuf], model: Option<GapModel>, options: &GapOptio
         }
         return csv::run(first, model, options);
     }
-    let measured = load_acquisitions(paths, options)?;
+    let refine = model.is_none();
+    // The start model is calibrated from the descriptor's files (every stack frame) while the
+    // acquisition loads; load errors are reported first, as if one ran after the other.
+    let (measured, start) = rayon::join(
+        || load_acquisitions(paths, options),
+        || match model {
+            Some(m) => Ok(m),
+            None => start_model(first, options.seed),
+        },
+    );
+    let measured = measured?;
     let unusable = |message: String| GapError::Unusable { path: first.clone(), message };
     let pairs = measured
         .blocks
@@ -820,11 +948,7 @@ pub fn run_inputs(paths: &[PathBuf], model: Option<GapModel>, options: &GapOptio
     if !measured.blocks.iter().any(|b| b.group == 0 && b.frames.len() == 2 && b.light == Light::Dark) {
         return Err(unusable("no dark pair ('d' block with 2 images)".into()));
     }
-    let refine = model.is_none();
-    let start = match model {
-        Some(m) => m,
-        None => start_model(first, measured.bits, options.seed)?,
-    };
+    let start = start?;
     let t = stats::thresholds(&measured);
     let mut m = stats::compute(&measured, &t);
     m.thresholds = Some(t);
