@@ -816,10 +816,10 @@ struct Counts {
     cached: usize,
     /// Screening windows simulated ([`Screen`]).
     windows: usize,
-    /// One-pair simulations of the read-noise refits.
+    /// Dark-pair variances of the read-noise refits (from moments, or a one-pair simulation).
     dark_pairs: usize,
     /// Seconds spent in each kind (summed over the threads that ran them side by side):
-    /// full simulations with their statistics, screening windows, one-pair simulations.
+    /// full simulations with their statistics, screening windows, dark-pair variances.
     full_s: f64,
     windows_s: f64,
     dark_pairs_s: f64,
@@ -1355,7 +1355,7 @@ pub fn search(
     let counts = *lock(&ev.counts);
     log::info!(
         "gap search: {} full simulations ({:.1} s; {} answered from the cache), {} screening windows ({:.1} s), \
-         {} one-pair read-noise simulations ({:.1} s), then {} replicates",
+         {} dark-pair variances for the read-noise refits ({:.1} s), then {} replicates",
         counts.full,
         counts.full_s,
         counts.cached,
