@@ -928,6 +928,10 @@ impl FrameSimulator<'_> {
 
         let mut mean_e = [0f64; ROW_BLOCK];
         let mut ptrs = [Ptrs::default(); ROW_BLOCK];
+        let mut exp_neg = [0f64; ROW_BLOCK];
+        // `exp(-mean)` of the last small mean met: pixels of one mean (a dark frame, an even
+        // field without PRNU) share it.
+        let mut last_small = (f64::NAN, 0.0);
         let mut drawn_e = [0f64; ROW_BLOCK];
         let mut pre_z = [0f64; ROW_BLOCK];
         let mut post_z = [0f64; ROW_BLOCK];
@@ -939,7 +943,7 @@ impl FrameSimulator<'_> {
             let hot = hot.map(|m| &m[cols.clone()]);
             let dsnu = dsnu.map(|m| &m[cols.clone()]);
             let column = column.map(|m| &m[cols]);
-            let (mean_e, ptrs) = (&mut mean_e[..n], &mut ptrs[..n]);
+            let (mean_e, ptrs, exp_neg) = (&mut mean_e[..n], &mut ptrs[..n], &mut exp_neg[..n]);
             let (drawn_e, pre_z, post_z) = (&mut drawn_e[..n], &mut pre_z[..n], &mut post_z[..n]);
             let dither_u = &mut dither_u[..n];
             // 1. Mean electrons, signal plus dark (hot pixels add to the dark mean), and PTRS's
@@ -965,9 +969,18 @@ impl FrameSimulator<'_> {
             for (t, &mu) in ptrs.iter_mut().zip(mean_e.iter()) {
                 *t = Ptrs::new(mu);
             }
+            // Inversion's `p_0 = exp(-mean)` (means below 10), once per run of equal means.
+            for (e, &mu) in exp_neg.iter_mut().zip(mean_e.iter()) {
+                if mu < POISSON_INVERSION_MAX {
+                    if mu.to_bits() != last_small.0.to_bits() {
+                        last_small = (mu, (-mu).exp());
+                    }
+                    *e = last_small.1;
+                }
+            }
             // 2. The draws, in the order of the stream.
             for i in 0..n {
-                drawn_e[i] = poisson_with(&mut rng, mean_e[i], &ptrs[i]);
+                drawn_e[i] = poisson_with(&mut rng, mean_e[i], &ptrs[i], exp_neg[i]);
                 if pre_sd > 0.0 {
                     pre_z[i] = standard_normal(&mut pre_rng);
                 }
@@ -1663,19 +1676,21 @@ const POISSON_INVERSION_MAX_K: f64 = 60.0;
 /// generating Poisson random variables", Insurance: Mathematics and Economics 12 (1993).
 #[inline(always)]
 pub fn poisson<R: Rng + ?Sized>(rng: &mut R, lambda: f64) -> f64 {
-    poisson_with(rng, lambda, &Ptrs::new(lambda))
+    let exp_neg = if lambda < POISSON_INVERSION_MAX { (-lambda).exp() } else { 0.0 };
+    poisson_with(rng, lambda, &Ptrs::new(lambda), exp_neg)
 }
 
-/// [`poisson`] with PTRS's constants computed beforehand (`ptrs = Ptrs::new(lambda)`; not read
-/// when `lambda` is below 10), so that a caller can compute them for many means in a loop
-/// without draws: the same draws and values as [`poisson`].
+/// [`poisson`] with PTRS's constants (`ptrs = Ptrs::new(lambda)`; not read when `lambda` is
+/// below 10) and inversion's `exp_neg = exp(-lambda)` (read only below 10) computed
+/// beforehand, so that a caller can compute them for many means in a loop without draws: the
+/// same draws and values as [`poisson`].
 #[inline(always)]
-fn poisson_with<R: Rng + ?Sized>(rng: &mut R, lambda: f64, ptrs: &Ptrs) -> f64 {
+fn poisson_with<R: Rng + ?Sized>(rng: &mut R, lambda: f64, ptrs: &Ptrs, exp_neg: f64) -> f64 {
     if lambda.is_nan() || lambda <= 0.0 {
         return 0.0;
     }
     if lambda < POISSON_INVERSION_MAX {
-        return poisson_inversion(rng, lambda);
+        return poisson_inversion(rng, lambda, exp_neg);
     }
     ptrs_draw(rng, lambda, ptrs)
 }
@@ -1754,11 +1769,11 @@ fn ptrs_accepts(lambda: f64, k: f64, us: f64, v: f64, a: f64, b: f64) -> bool {
 /// A Poisson draw for a small mean (below 10) by sequential inversion: the smallest `k` whose
 /// cumulative probability `P(X <= k)` reaches one uniform, the masses from `p_0 = exp(-lambda)`
 /// by `p_k = p_(k-1) lambda / k`. One uniform per draw, where multiplying uniforms until their
-/// product drops below `exp(-lambda)` (Knuth) takes `k + 1`.
+/// product drops below `exp(-lambda)` (Knuth) takes `k + 1`. `exp_neg` is `exp(-lambda)`.
 #[inline(always)]
-fn poisson_inversion<R: Rng + ?Sized>(rng: &mut R, lambda: f64) -> f64 {
+fn poisson_inversion<R: Rng + ?Sized>(rng: &mut R, lambda: f64, exp_neg: f64) -> f64 {
     let u = rng.random::<f64>();
-    let mut p = (-lambda).exp();
+    let mut p = exp_neg;
     let mut cdf = p;
     let mut k = 0.0;
     while u > cdf && k < POISSON_INVERSION_MAX_K {
