@@ -386,7 +386,8 @@ pub fn simulate_rows(
     let sensor = layout_sensor(model, layout);
     let pattern = fixed_pattern(&sensor, w, h);
     let photon_map = PhotonMap::new(model, layout, h);
-    // The per-pixel constants of the moments, from the first block drawn by them.
+    // The per-pixel constants of the moments (the same for every block: the model's patterns
+    // and offsets), made by whichever block drawn from moments comes first.
     let constants = std::sync::OnceLock::new();
     // Pairs whose pixels the statistics read, not only their sums.
     let read_frames = stats::correlation_pairs(layout);
