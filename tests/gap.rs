@@ -100,6 +100,22 @@ fn hidden_effects_are_named_and_the_gap_shrinks() {
     );
 }
 
+/// Hidden-effect case 11 with a 20 DN black level (its dark frames clear 0 DN, so the moments
+/// describe every row), a 3 e- DSNU and, when given, a PRNU of that fraction, on a `w x h`
+/// layout of its acquisition.
+fn case_11_above_zero(prnu: Option<f64>, (w, h): (usize, usize)) -> (gap::GapModel, gap::Acquisition) {
+    let mut model = testdata::random_case(11, 2).model;
+    let e = &mut model.sensor.effects;
+    (e.black_level.enabled, e.black_level.offset_dn) = (true, 20.0);
+    (e.dsnu.enabled, e.dsnu.std_e) = (true, 3.0);
+    if let Some(fraction) = prnu {
+        (e.prnu.enabled, e.prnu.std_fraction) = (true, fraction);
+    }
+    let mut layout = testdata::layout(&model);
+    (layout.width, layout.height) = (w, h);
+    (model, layout)
+}
+
 /// A temporal pair drawn from its pixels' moments keeps only its statistics
 /// ([`gap::Block::pair`]), drawn from row and column sums. Over 300 seeds they follow the
 /// distribution of the same pair drawn pixel by pixel: for every step and dark pair, the
@@ -107,13 +123,7 @@ fn hidden_effects_are_named_and_the_gap_shrinks() {
 /// seeds within a quarter, and so do the sampling variances the gap divides by.
 #[test]
 fn pair_sums_follow_the_pixels_they_summarise() {
-    let mut model = testdata::random_case(11, 2).model;
-    let e = &mut model.sensor.effects;
-    (e.black_level.enabled, e.black_level.offset_dn) = (true, 20.0);
-    (e.prnu.enabled, e.prnu.std_fraction) = (true, 0.01);
-    (e.dsnu.enabled, e.dsnu.std_e) = (true, 3.0);
-    let mut layout = testdata::layout(&model);
-    (layout.width, layout.height) = (64, 48);
+    let (model, layout) = case_11_above_zero(Some(0.01), (64, 48));
     let t = stats::Thresholds { dark_dn: f64::INFINITY, bright_dn: f64::INFINITY };
     let families = ["linearity", "photon_transfer", "dark"];
     let draw = |draws: gap::Draws, seed: u64| {
@@ -757,12 +767,7 @@ fn remove_waves_takes_out_an_off_grid_plane_wave() {
 /// noise's variance as `K^2` (the refit's secant lands in a step or two).
 #[test]
 fn pair_variance_from_moments_matches_drawn_pairs() {
-    let mut model = testdata::random_case(11, 2).model;
-    let e = &mut model.sensor.effects;
-    (e.black_level.enabled, e.black_level.offset_dn) = (true, 20.0);
-    (e.dsnu.enabled, e.dsnu.std_e) = (true, 3.0);
-    let mut layout = testdata::layout(&model);
-    (layout.width, layout.height) = (320, 240);
+    let (model, layout) = case_11_above_zero(None, (320, 240));
     let dark = layout.blocks.iter().position(|b| b.frames.len() == 2 && b.light == gap::Light::Dark).unwrap();
     let expected = gap::pair_variance_from_moments(&model, &layout, dark, 7).expect("dark rows clear 0 DN");
     let n = (layout.width * layout.height) as f64;

@@ -738,7 +738,7 @@ struct Probe {
     gathers: Vec<Gather>,
     /// Whether it stands in free space.
     valid: bool,
-    /// How far its even rays went.
+    /// How far its unshaded rays through the cells of its octahedral map went ([`depth_map`]).
     depth: DepthMap,
     /// Rays traced.
     traced: u32,

@@ -811,18 +811,29 @@ struct Evaluator {
 #[derive(Debug, Default, Clone, Copy)]
 struct Counts {
     /// Full simulations.
-    full: usize,
+    full: Tally,
     /// Evaluations answered from the cache.
     cached: usize,
     /// Screening windows simulated ([`Screen`]).
-    windows: usize,
+    windows: Tally,
     /// Dark-pair variances of the read-noise refits (from moments, or a one-pair simulation).
-    dark_pairs: usize,
-    /// Seconds spent in each kind (summed over the threads that ran them side by side):
-    /// full simulations with their statistics, screening windows, dark-pair variances.
-    full_s: f64,
-    windows_s: f64,
-    dark_pairs_s: f64,
+    dark_pairs: Tally,
+}
+
+/// How many of one kind of simulation ran, and their seconds (summed over the threads that ran
+/// them side by side).
+#[derive(Debug, Default, Clone, Copy)]
+struct Tally {
+    n: usize,
+    seconds: f64,
+}
+
+impl Tally {
+    /// One more, begun at `started`.
+    fn add(&mut self, started: Instant) {
+        self.n += 1;
+        self.seconds += started.elapsed().as_secs_f64();
+    }
 }
 
 /// A cached evaluation: model, group gains (dB), statistics and gap.
@@ -856,11 +867,7 @@ impl Evaluator {
         }
         s.thresholds = Some(self.t);
         let g = stats::gap(&self.m, &s);
-        {
-            let mut counts = lock(&self.counts);
-            counts.full += 1;
-            counts.full_s += started.elapsed().as_secs_f64();
-        }
+        lock(&self.counts).full.add(started);
         let mut cache = lock(&self.cache);
         cache.insert(0, (model.clone(), self.layout.gains_db.clone(), s.clone(), g.clone()));
         cache.truncate(EVAL_CACHE);
@@ -890,22 +897,19 @@ impl Evaluator {
         let from_moments = (self.draws.get(self.dark_pair) == Some(&Draws::Moments))
             .then(|| super::pair_variance_from_moments(model, &self.layout, self.dark_pair, self.seed))
             .flatten();
-        if let Some(var) = from_moments {
-            let mut counts = lock(&self.counts);
-            counts.dark_pairs += 1;
-            counts.dark_pairs_s += started.elapsed().as_secs_f64();
-            return var;
-        }
+        let var = from_moments.unwrap_or_else(|| self.simulated_dark_var(model));
+        lock(&self.counts).dark_pairs.add(started);
+        var
+    }
+
+    /// Temporal variance of the first dark pair simulated alone.
+    fn simulated_dark_var(&self, model: &GapModel) -> f64 {
         let sim = self.simulate(model, self.seed, Some(&[self.dark_pair]));
         let b = &sim.blocks[self.dark_pair];
         let n = b.frames[0].len() as f64;
         let d: Vec<f64> = b.frames[0].iter().zip(&b.frames[1]).map(|(&x, &y)| f64::from(x) - f64::from(y)).collect();
         let md = d.iter().sum::<f64>() / n;
-        let var = d.iter().map(|v| (v - md) * (v - md)).sum::<f64>() / (n - 1.0) / 2.0;
-        let mut counts = lock(&self.counts);
-        counts.dark_pairs += 1;
-        counts.dark_pairs_s += started.elapsed().as_secs_f64();
-        var
+        d.iter().map(|v| (v - md) * (v - md)).sum::<f64>() / (n - 1.0) / 2.0
     }
 
     /// Refits the read noise so the simulated dark-pair variance matches the measured one
@@ -1037,8 +1041,10 @@ pub const SCREEN_MIN_ROWS: usize = 240;
 pub const SCREEN_KEEP: usize = 3;
 
 /// A screened candidate whose drop on the window is below this fraction of the round's largest
-/// is not simulated in full: the window's drops follow the full ones to well within this factor
-/// (they are about a quarter of them), so it cannot be the round's best.
+/// is not simulated in full. On the 12-bit 640x480 set of docs/BENCHMARKS.md the window's drops
+/// were 0.085 to 0.33 of the full ones (mostly a quarter, the top quarter of the rows), so a
+/// candidate ten times behind on the window was never ahead in full; the fraction leaves that
+/// factor of four of spread a margin of more than two.
 pub const SCREEN_KEEP_FRACTION: f64 = 0.1;
 
 /// How many of a round's screened candidates, ranked by their window drops `drops`, are
@@ -1083,11 +1089,7 @@ impl Screen {
         expect_dark_tails(&mut s, model, &ev.t);
         s.thresholds = Some(ev.t);
         let c = stats::gap(&self.m, &s).chi2_total;
-        {
-            let mut counts = lock(&ev.counts);
-            counts.windows += 1;
-            counts.windows_s += started.elapsed().as_secs_f64();
-        }
+        lock(&ev.counts).windows.add(started);
         let mut cache = lock(&self.cache);
         cache.insert(0, (model.clone(), ev.layout.gains_db.clone(), c));
         cache.truncate(2);
@@ -1176,10 +1178,10 @@ impl Problem for GapProblem {
     /// chi-square, until a pass gains less than 1 or a ten-thousandth of the chi-square (closed
     /// forms are only approximate where frames clip at 0 DN or at the ADC limit).
     fn polish(&mut self, _: &[&'static str], model: GapModel, sim: GapSim) -> (GapModel, GapSim) {
-        let simulations_before = lock(&self.ev.counts).full;
+        let simulations_before = lock(&self.ev.counts).full.n;
         let polished =
             if self.screen.is_some() { self.polish_screened(model, sim) } else { self.polish_full(model, sim) };
-        log::debug!("polish: {} full simulations", lock(&self.ev.counts).full - simulations_before);
+        log::debug!("polish: {} full simulations", lock(&self.ev.counts).full.n - simulations_before);
         polished
     }
 }
@@ -1356,16 +1358,16 @@ pub fn search(
     log::info!(
         "gap search: {} full simulations ({:.1} s; {} answered from the cache), {} screening windows ({:.1} s), \
          {} dark-pair variances for the read-noise refits ({:.1} s), then {} replicates",
-        counts.full,
-        counts.full_s,
+        counts.full.n,
+        counts.full.seconds,
         counts.cached,
-        counts.windows,
-        counts.windows_s,
-        counts.dark_pairs,
-        counts.dark_pairs_s,
+        counts.windows.n,
+        counts.windows.seconds,
+        counts.dark_pairs.n,
+        counts.dark_pairs.seconds,
         options.replicates
     );
-    let (simulations, cached_evaluations) = (counts.full, counts.cached);
+    let (simulations, cached_evaluations) = (counts.full.n, counts.cached);
     let misfit = (options.replicates > 0).then(|| {
         // Side by side, as the screened candidates (`GapProblem::screen`).
         let started = Instant::now();

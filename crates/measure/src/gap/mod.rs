@@ -82,6 +82,7 @@ pub mod stats;
 pub mod testdata;
 
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 
 use rand::Rng as _;
@@ -619,10 +620,12 @@ struct PairMoments {
 
 impl PairMoments {
     /// The sums of the block of `photons`; `None` when a row is not described by its moments
-    /// ([`FrameSimulator::row_moments`]), and the pair is drawn pixel by pixel.
+    /// ([`FrameSimulator::row_moments`]), and the pair is drawn frame by frame. The first such
+    /// row stops every chunk, so a pair that falls back wastes few rows' moments.
     fn of(sim: &FrameSimulator, constants: &PixelConstants, photons: &[f32], w: usize) -> Option<PairMoments> {
         let w = w.max(1);
         let chunk = w * PAIR_ROWS_PER_CHUNK;
+        let undescribed = AtomicBool::new(false);
         let chunks: Vec<Option<PairMoments>> = photons
             .par_chunks(chunk)
             .enumerate()
@@ -630,7 +633,10 @@ impl PairMoments {
                 let (mut mean, mut var) = (vec![0.0; w], vec![0.0; w]);
                 let mut sums = PairMoments { rows: Vec::new(), col_m: vec![0.0; w], col_v: vec![0.0; w] };
                 for (j, row) in ph.chunks(w).enumerate() {
-                    if !sim.row_moments(constants, ci * PAIR_ROWS_PER_CHUNK + j, row, &mut mean, &mut var) {
+                    if undescribed.load(Ordering::Relaxed)
+                        || !sim.row_moments(constants, ci * PAIR_ROWS_PER_CHUNK + j, row, &mut mean, &mut var)
+                    {
+                        undescribed.store(true, Ordering::Relaxed);
                         return None;
                     }
                     sums.rows.push(row_sums(&mean, &var));
