@@ -50,8 +50,8 @@
 //! too fine for Sheppard's correction), a spatial stack as its mean image, one draw per pixel,
 //! and a temporal pair as its statistics alone, drawn from its rows' and columns' sums of
 //! those moments (`moment_pair`; the two pairs whose neighbour correlation is read keep their
-//! pixels). Blocks whose measurement touches 0 DN or the ADC's top, and rows near the full well,
-//! are drawn pixel by pixel as the hidden-effect sets are made ([`Draws::Pixels`],
+//! pixels). Lit blocks whose measurement touches 0 DN and rows near the full well are drawn
+//! pixel by pixel as the hidden-effect sets are made ([`Draws::Pixels`],
 //! [`block_draws`]). The statistics use FFTs ([`stats::periodogram_2d`]), separable wave
 //! tables and run their pairs and stacks in parallel; the search keeps its last evaluations
 //! ([`fit`]: an unchanged model is not simulated again) and the last fixed patterns; and on
@@ -342,20 +342,24 @@ pub fn simulate_acquisition(model: &GapModel, layout: &Acquisition, seed: u64, w
 pub const MOMENTS_MIN_ROWS: usize = 240;
 
 /// How the search draws each block of `measured` under `draws`: [`Draws::Moments`] only on
-/// frames of at least [`MOMENTS_MIN_ROWS`] rows and for blocks whose frames hold no pixel at
-/// 0 DN or at the ADC's top (one in ten thousand allowed: a hot or dead pixel), so no
+/// frames of at least [`MOMENTS_MIN_ROWS`] rows, and for blocks whose frames hold no pixel at
+/// 0 DN unless the block is dark (one in ten thousand allowed: a hot or dead pixel), so no
 /// candidate near the data switches a block between the two ways of drawing; the others pixel
-/// by pixel.
+/// by pixel. [`FrameSimulator::row_moments`] describes for every candidate the pixels that
+/// reach the clips in the blocks it is given: dark pixels near 0 DN, which share their Poisson
+/// mean, from one table per frame, and bright pixels at the ADC's top, whose counts are large,
+/// from censored moments; a lit pixel near 0 DN would be summed alone, over more counts than a
+/// sum takes.
 #[must_use]
 pub fn block_draws(measured: &Acquisition, draws: Draws) -> Vec<Draws> {
     let draws = if measured.height < MOMENTS_MIN_ROWS { Draws::Pixels } else { draws };
-    let top = f32::from(u16::try_from((1u32 << measured.bits) - 1).unwrap_or(u16::MAX));
     measured
         .blocks
         .iter()
         .map(|b| {
             let values = b.frames.iter().map(Vec::len).sum::<usize>();
-            let clipped = b.frames.iter().flatten().filter(|&&v| v <= 0.0 || v >= top).count();
+            let lit = b.light != Light::Dark;
+            let clipped = if lit { b.frames.iter().flatten().filter(|&&v| v <= 0.0).count() } else { 0 };
             if draws == Draws::Moments && values > 0 && clipped * 10_000 <= values {
                 Draws::Moments
             } else {
