@@ -1094,7 +1094,7 @@ impl FrameSimulator<'_> {
     /// mean) and its slope and curvature (the variance). Other rows take exact moments pixel by
     /// pixel where the Gaussian ones fail: dark pixels from one table per frame over their
     /// level, near 0 DN as well; pixels against the ADC's top with a thousand electrons or more
-    /// from their censored moments ([`TOP_CLIP_MIN_E`]); the rest summed over their counts.
+    /// from their censored moments; the rest summed over their counts.
     ///
     /// # Panics
     /// If `photons`, `mean` or `var` is not one row long, or `r` is outside the frame.
@@ -1118,6 +1118,9 @@ impl FrameSimulator<'_> {
         let dither_dn = if e.quantization.enabled { e.quantization.dither_dn } else { 0.0 };
         let g = self.nonlinearity_dn();
         let bends = !g.is_identity();
+        if let Some(described) = self.dark_row_moments(constants, r, photons, mean, var) {
+            return described;
+        }
         let (row, bounds, darkest) = match Dispatch::current().supported() {
             // SAFETY: `supported()` gives `Avx2Fma` only when this CPU has AVX2 and FMA.
             #[cfg(target_arch = "x86_64")]
@@ -1137,6 +1140,53 @@ impl FrameSimulator<'_> {
             }
         }
         dither_dn == 0.0 && self.exact_row_moments(constants, &self.row_inputs(constants, r, photons), mean, var)
+    }
+
+    /// [`FrameSimulator::row_moments`] of a dark row that reaches a clip, straight from the
+    /// dark tables ([`DarkLookup`]), the same values without the Gaussian pass and the
+    /// per-pixel inputs that the general path spends first; `None` where the general path
+    /// decides (a lit pixel or a hot pixel, a nonlinearity, dither, a row offset, a row whose
+    /// Gaussian moments hold, a pixel the tables do not serve).
+    fn dark_row_moments(
+        &self,
+        constants: &PixelConstants,
+        r: usize,
+        photons: &[f32],
+        mean: &mut [f64],
+        var: &mut [f64],
+    ) -> Option<bool> {
+        let q = self.model.effects.quantization;
+        let plain = !(q.enabled && q.dither_dn != 0.0) && self.row_sd == 0.0 && constants.hot_e_per_s.is_empty();
+        if !plain || !self.nonlinearity_dn().is_identity() || photons.iter().any(|&p| p > 0.0) {
+            return None;
+        }
+        let span = r * self.width..(r + 1) * self.width;
+        let dsnu = constants.dsnu_e.get(span.clone());
+        let offset = &constants.offset_dn[span];
+        let (k, lambda, pre_var) = (self.k, self.dark_mean, self.pre_sd * self.pre_sd);
+        // The Gaussian pass's bounds, as [`FrameSimulator::gaussian_moments`] computes them.
+        let vy = k * k * (lambda + pre_var) + self.post_sd * self.post_sd;
+        let (reach2, var_e) = (64.0 * vy, lambda + pre_var);
+        let (mut below_full_well, mut inside) = (true, true);
+        for (i, &o) in offset.iter().enumerate() {
+            let d = dsnu.map_or(0.0, |m| m[i]);
+            let headroom = self.full_well - (lambda + d);
+            below_full_well &= headroom > 0.0 && headroom * headroom > 64.0 * var_e;
+            let a = k * (lambda + d) + o;
+            let (low, high) = (a + 0.5, self.max + 0.5 - a);
+            inside &= low > 0.0 && high > 0.0 && low * low > reach2 && high * high > reach2;
+        }
+        if !below_full_well {
+            return Some(false);
+        }
+        if inside {
+            return None;
+        }
+        let dark = DarkLookup::new(self, constants);
+        for (i, &o) in offset.iter().enumerate() {
+            (mean[i], var[i]) = dark.moments(k * dsnu.map_or(0.0, |m| m[i]) + o)?;
+        }
+        Some(true)
     }
 
     /// What the moments of row `r` need of its pixels, as [`FrameSimulator::row`] adds them:
@@ -1352,23 +1402,9 @@ impl FrameSimulator<'_> {
     ) -> bool {
         let k = self.k;
         let g = self.nonlinearity_dn();
-        let smooth_sd = (k * k * self.pre_sd * self.pre_sd + self.post_sd * self.post_sd).sqrt();
-        let row_var = self.row_sd * self.row_sd;
-        // How far a pixel's output reaches from its level: its Poisson counts and eight
-        // deviations of the Gaussian noise (the dark pixels' reach once: their mean is shared).
+        let dark = DarkLookup::new(self, constants);
+        let (smooth_sd, row_var) = (dark.noise.smooth_sd, self.row_sd * self.row_sd);
         let noise_reach = 8.0 * (smooth_sd * smooth_sd + row_var).sqrt();
-        let dark_reach = k * poisson_range(self.dark_mean).1 as f64 + noise_reach;
-        // One table of each kind serves every dark pixel of the frame, whichever row comes first.
-        let noise = DarkNoise { lambda_e: self.dark_mean, k, smooth_sd, max: self.max };
-        let table = || self.dark_table.get_or_init(|| RoundingTable::cached(noise)).as_deref();
-        let clip_table = || {
-            let [dsnu_lo, dsnu_hi] = constants.dsnu_range_e;
-            let [offset_lo, offset_hi] = constants.offset_range_dn;
-            // Only the levels whose outputs reach 0 DN: those below always read 0 DN.
-            let lo = (k * dsnu_lo + offset_lo).max(-0.5 - dark_reach);
-            let hi = (k * dsnu_hi + offset_hi).min(0.5 + dark_reach);
-            self.clip_table.get_or_init(|| ClipTable::cached(noise, [lo, hi])).as_deref()
-        };
         // Without a nonlinearity, rounding that is smooth at one Poisson mean is smooth at
         // every larger one (the lattice's terms fall, the variance grows): the smallest mean
         // shown smooth so far spares the larger ones the test.
@@ -1385,25 +1421,15 @@ impl FrameSimulator<'_> {
         };
         for (i, px) in pixels.iter().enumerate() {
             let base = k * px.dsnu_e + px.offset_dn;
-            let reach = if px.dark_only { dark_reach } else { k * poisson_range(px.lambda_e).1 as f64 + noise_reach };
-            let clear = base - reach > 0.5 && base + reach < self.max - 0.5;
+            let reach =
+                if px.dark_only { dark.reach_dn } else { k * poisson_range(px.lambda_e).1 as f64 + noise_reach };
             let straight = g.is_identity() || g.bend(base + reach).abs() < ROUNDING_BIAS_MAX_DN;
-            if px.dark_only && straight {
-                if clear && let Some(t) = table() {
-                    (mean[i], var[i]) = t.moments(base);
-                    continue;
-                }
-                // Near 0 DN only, and without a row offset (which would move the clip per row).
-                if !clear && row_var == 0.0 && base + reach < self.max - 0.5 {
-                    if base + reach < -0.5 {
-                        (mean[i], var[i]) = (0.0, 0.0);
-                        continue;
-                    }
-                    if let Some(t) = clip_table() {
-                        (mean[i], var[i]) = t.moments(base);
-                        continue;
-                    }
-                }
+            if px.dark_only
+                && straight
+                && let Some(m) = dark.moments(base)
+            {
+                (mean[i], var[i]) = m;
+                continue;
             }
             let (low, high) = (mean[i] + 0.5, self.max + 0.5 - mean[i]);
             let reach2 = 64.0 * (var[i] - 1.0 / 12.0 + row_var);
@@ -1610,6 +1636,62 @@ fn rounded_moments(px: &RoundedPixel, smooth_sd: f64, lo: f64, hi: f64) -> (f64,
         p *= px.lambda_e / (n + 1) as f64;
     }
     (centre + s1, s2 - s1 * s1)
+}
+
+/// The exact moments of a frame's dark pixels from their level alone, for
+/// [`FrameSimulator::row_moments`]: they share their Poisson mean and noise, so one
+/// [`RoundingTable`] serves those clear of the clips and one [`ClipTable`] those near 0 DN,
+/// each built on first use (or found in the cache) whichever row comes first.
+struct DarkLookup<'s, 'a> {
+    sim: &'s FrameSimulator<'a>,
+    constants: &'s PixelConstants,
+    noise: DarkNoise,
+    /// How far a dark pixel's output reaches from its level, DN: its Poisson counts and eight
+    /// deviations of the Gaussian noise and the row offset.
+    reach_dn: f64,
+    row_var: f64,
+}
+
+impl<'s, 'a> DarkLookup<'s, 'a> {
+    fn new(sim: &'s FrameSimulator<'a>, constants: &'s PixelConstants) -> Self {
+        let k = sim.k;
+        let smooth_sd = (k * k * sim.pre_sd * sim.pre_sd + sim.post_sd * sim.post_sd).sqrt();
+        let row_var = sim.row_sd * sim.row_sd;
+        let reach_dn = k * poisson_range(sim.dark_mean).1 as f64 + 8.0 * (smooth_sd * smooth_sd + row_var).sqrt();
+        let noise = DarkNoise { lambda_e: sim.dark_mean, k, smooth_sd, max: sim.max };
+        DarkLookup { sim, constants, noise, reach_dn, row_var }
+    }
+
+    /// Mean and variance of the rounded, clipped output of a dark pixel at level `base` DN
+    /// (straight: the caller sees to the nonlinearity); `None` near the ADC's top, near 0 DN
+    /// under a row offset (which moves the clip row by row), and where the noise is too fine
+    /// to tabulate.
+    fn moments(&self, base: f64) -> Option<(f64, f64)> {
+        let (sim, reach, max) = (self.sim, self.reach_dn, self.noise.max);
+        if base + reach >= max - 0.5 {
+            return None;
+        }
+        if base - reach > 0.5 {
+            let table = sim.dark_table.get_or_init(|| RoundingTable::cached(self.noise));
+            return table.as_deref().map(|t| t.moments(base));
+        }
+        if self.row_var != 0.0 {
+            return None;
+        }
+        if base + reach < -0.5 {
+            return Some((0.0, 0.0));
+        }
+        let table = sim.clip_table.get_or_init(|| {
+            let k = self.noise.k;
+            let [dsnu_lo, dsnu_hi] = self.constants.dsnu_range_e;
+            let [offset_lo, offset_hi] = self.constants.offset_range_dn;
+            // Only the levels whose outputs reach 0 DN: those below always read 0 DN.
+            let lo = (k * dsnu_lo + offset_lo).max(-0.5 - reach);
+            let hi = (k * dsnu_hi + offset_hi).min(0.5 + reach);
+            ClipTable::cached(self.noise, [lo, hi])
+        });
+        table.as_deref().map(|t| t.moments(base))
+    }
 }
 
 /// Poisson means, electrons, from which a pixel against the ADC's top takes
