@@ -1139,7 +1139,7 @@ impl FrameSimulator<'_> {
                 return true;
             }
         }
-        dither_dn == 0.0 && self.exact_row_moments(constants, &self.row_inputs(constants, r, photons), mean, var)
+        self.exact_row_moments(constants, &self.row_inputs(constants, r, photons), mean, var)
     }
 
     /// [`FrameSimulator::row_moments`] of a dark row that reaches a clip, straight from the
@@ -1408,7 +1408,7 @@ impl FrameSimulator<'_> {
         let k = self.k;
         let g = self.nonlinearity_dn();
         let dark = DarkLookup::new(self, constants);
-        let (smooth_sd, row_var) = (dark.noise.smooth_sd, self.row_sd * self.row_sd);
+        let (smooth_sd, dither_dn, row_var) = (dark.noise.smooth_sd, dark.noise.dither_dn, self.row_sd * self.row_sd);
         // Without a nonlinearity, rounding that is smooth at one Poisson mean is smooth at
         // every larger one (the lattice's terms fall, the variance grows): the smallest mean
         // shown smooth so far spares the larger ones the test.
@@ -1417,7 +1417,7 @@ impl FrameSimulator<'_> {
             if g.is_identity() && lambda_e >= smooth_from_e {
                 return true;
             }
-            let smooth = self.rounding_is_smooth(lambda_e, slope, var_dn2, 0.0);
+            let smooth = self.rounding_is_smooth(lambda_e, slope, var_dn2, dither_dn);
             if smooth && g.is_identity() {
                 smooth_from_e = lambda_e;
             }
@@ -1443,8 +1443,10 @@ impl FrameSimulator<'_> {
             if smooth {
                 continue;
             }
-            // Against the ADC's top with a large count: the censored Edgeworth moments.
+            // Against the ADC's top with a large count: the censored Edgeworth moments (of a
+            // Gaussian: not under a dither).
             if row_var == 0.0
+                && dither_dn == 0.0
                 && px.lambda_e >= TOP_CLIP_MIN_E
                 && low > 0.0
                 && low * low > reach2
@@ -1459,11 +1461,17 @@ impl FrameSimulator<'_> {
                 (mean[i], var[i]) = top_clipped_moments(mean[i], var[i] - 1.0 / 12.0, k3, self.max);
                 continue;
             }
-            if SumPlan::new(px.lambda_e, k, smooth_sd).terms() > EXACT_TERMS_MAX {
+            if SumPlan::new(px.lambda_e, k, smooth_sd, dither_dn).terms() > EXACT_TERMS_MAX {
                 return false;
             }
-            let pixel =
-                RoundedPixel { lambda_e: px.lambda_e, k, dsnu_e: px.dsnu_e, offset_dn: px.offset_dn, nonlinearity: g };
+            let pixel = RoundedPixel {
+                lambda_e: px.lambda_e,
+                k,
+                dsnu_e: px.dsnu_e,
+                offset_dn: px.offset_dn,
+                nonlinearity: g,
+                dither_dn,
+            };
             (mean[i], var[i]) = rounded_moments(&pixel, smooth_sd, 0.0, self.max);
         }
         true
@@ -1541,6 +1549,23 @@ struct RoundedPixel {
     dsnu_e: f64,
     offset_dn: f64,
     nonlinearity: DnPolynomial,
+    /// Width of the uniform dither added before rounding, DN (0: none).
+    dither_dn: f64,
+}
+
+impl RoundedPixel {
+    /// A dark pixel of `noise` at level 0 DN.
+    fn dark(noise: DarkNoise) -> RoundedPixel {
+        let nonlinearity = DnPolynomial::default();
+        RoundedPixel {
+            lambda_e: noise.lambda_e,
+            k: noise.k,
+            dsnu_e: 0.0,
+            offset_dn: 0.0,
+            nonlinearity,
+            dither_dn: noise.dither_dn,
+        }
+    }
 }
 
 /// How [`rounded_moments`] sums a pixel: over the Poisson counts `n_lo..=n_hi` with Gaussian
@@ -1552,21 +1577,24 @@ struct SumPlan {
     n_hi: u64,
     sd: f64,
     collapsed: bool,
+    /// Width of the dither, DN, which widens each window.
+    dither_dn: f64,
 }
 
 impl SumPlan {
-    fn new(lambda: f64, k: f64, smooth_sd: f64) -> SumPlan {
+    fn new(lambda: f64, k: f64, smooth_sd: f64, dither_dn: f64) -> SumPlan {
         let sd = (smooth_sd * smooth_sd + k * k * lambda.max(0.0)).sqrt();
         if lambda > 0.0 && k <= 0.5 * smooth_sd && k * k * k * lambda <= 1e-3 * sd * sd * sd {
-            return SumPlan { n_lo: 0, n_hi: 0, sd, collapsed: true };
+            return SumPlan { n_lo: 0, n_hi: 0, sd, collapsed: true, dither_dn };
         }
         let (n_lo, n_hi) = poisson_range(lambda);
-        SumPlan { n_lo, n_hi, sd: smooth_sd, collapsed: false }
+        SumPlan { n_lo, n_hi, sd: smooth_sd, collapsed: false, dither_dn }
     }
 
     /// Terms of the sum, at most (before clipping narrows the windows).
     fn terms(&self) -> usize {
-        let window = if self.sd > 0.0 { (16.0 * self.sd).ceil() as usize + 2 } else { 1 };
+        let spread = 16.0 * self.sd + self.dither_dn;
+        let window = if spread > 0.0 { spread.ceil() as usize + 2 } else { 1 };
         (self.n_hi - self.n_lo + 1) as usize * window
     }
 }
@@ -1597,14 +1625,17 @@ fn poisson_range(lambda: f64) -> (u64, u64) {
 /// exactly over the Poisson counts and the output values within eight deviations of each
 /// ([`SumPlan`], whose `terms` bound the cost).
 fn rounded_moments(px: &RoundedPixel, smooth_sd: f64, lo: f64, hi: f64) -> (f64, f64) {
-    let plan = SumPlan::new(px.lambda_e, px.k, smooth_sd);
+    let plan = SumPlan::new(px.lambda_e, px.k, smooth_sd, px.dither_dn);
     let (n_lo, n_hi, smooth_sd) = (plan.n_lo, plan.n_hi, plan.sd);
     let level = |n: f64| {
         let x = px.k * (n + px.dsnu_e);
         px.nonlinearity.apply(x) + px.offset_dn
     };
     let centre = round_exact(level(px.lambda_e));
-    let cdf = |x: f64, mu: f64| 0.5 * libm::erfc((mu - x) / (smooth_sd * std::f64::consts::SQRT_2));
+    let dither = px.dither_dn;
+    let cdf = |x: f64, mu: f64| {
+        if dither > 0.0 { dithered_cdf(x - mu, smooth_sd, dither) } else { normal_cdf((x - mu) / smooth_sd) }
+    };
     let mut p = if plan.collapsed {
         1.0
     } else if px.lambda_e > 0.0 {
@@ -1615,9 +1646,9 @@ fn rounded_moments(px: &RoundedPixel, smooth_sd: f64, lo: f64, hi: f64) -> (f64,
     let (mut s1, mut s2) = (0.0, 0.0);
     for n in n_lo..=n_hi {
         let mu = level(if plan.collapsed { px.lambda_e } else { n as f64 });
-        if smooth_sd > 0.0 {
-            let m_lo = (mu - 8.0 * smooth_sd).floor().clamp(lo, hi);
-            let m_hi = (mu + 8.0 * smooth_sd).ceil().clamp(lo, hi);
+        if smooth_sd > 0.0 || dither > 0.0 {
+            let m_lo = (mu - 8.0 * smooth_sd - 0.5 * dither).floor().clamp(lo, hi);
+            let m_hi = (mu + 8.0 * smooth_sd + 0.5 * dither).ceil().clamp(lo, hi);
             // The lowest value takes all the mass below it, the highest all above it.
             let mut below = 0.0;
             let mut m = m_lo;
@@ -1658,8 +1689,12 @@ impl<'s, 'a> DarkLookup<'s, 'a> {
         let k = sim.k;
         let smooth_sd = (k * k * sim.pre_sd * sim.pre_sd + sim.post_sd * sim.post_sd).sqrt();
         let row_var = sim.row_sd * sim.row_sd;
-        let reach_dn = k * poisson_range(sim.dark_mean).1 as f64 + 8.0 * (smooth_sd * smooth_sd + row_var).sqrt();
-        let noise = DarkNoise { lambda_e: sim.dark_mean, k, smooth_sd, max: sim.max };
+        let q = sim.model.effects.quantization;
+        let dither_dn = if q.enabled { q.dither_dn } else { 0.0 };
+        let reach_dn = k * poisson_range(sim.dark_mean).1 as f64
+            + 8.0 * (smooth_sd * smooth_sd + row_var).sqrt()
+            + 0.5 * dither_dn;
+        let noise = DarkNoise { lambda_e: sim.dark_mean, k, smooth_sd, max: sim.max, dither_dn };
         DarkLookup { sim, constants, noise, reach_dn, row_var }
     }
 
@@ -1731,6 +1766,23 @@ fn top_clipped_moments(mean_dn: f64, var_dn2: f64, k3_dn3: f64, max: f64) -> (f6
     (mean_dn + e1, (e2 - e1 * e1).max(0.0))
 }
 
+/// The standard normal distribution function.
+fn normal_cdf(z: f64) -> f64 {
+    0.5 * libm::erfc(-z / std::f64::consts::SQRT_2)
+}
+
+/// `P(sd Z + dither U < t)`, `Z` standard normal and `U` uniform on `[-1/2, 1/2]`: the mean of
+/// the normal distribution function over the dither, `(sd / dither) [Psi((t + dither/2) / sd) -
+/// Psi((t - dither/2) / sd)]` with `Psi(z) = z Phi(z) + phi(z)` its antiderivative (the uniform
+/// alone where `sd` is 0).
+fn dithered_cdf(t: f64, sd: f64, dither: f64) -> f64 {
+    if sd <= 0.0 {
+        return (t / dither + 0.5).clamp(0.0, 1.0);
+    }
+    let psi = |z: f64| z * normal_cdf(z) + (-0.5 * z * z).exp() / std::f64::consts::TAU.sqrt();
+    (sd / dither * (psi((t + 0.5 * dither) / sd) - psi((t - 0.5 * dither) / sd))).clamp(0.0, 1.0)
+}
+
 /// Nodes of a [`RoundingTable`] over one DN.
 const ROUNDING_TABLE_NODES: usize = 256;
 
@@ -1752,17 +1804,18 @@ impl RoundingTable {
     /// The table of `noise` from the cache of recent ones ([`table_cache`]), built on a miss.
     fn cached(noise: DarkNoise) -> Option<Arc<RoundingTable>> {
         static CACHE: TableCache<RoundingTable> = Mutex::new(Vec::new());
-        table_cache(&CACHE, noise, |_| true, || RoundingTable::new(noise.lambda_e, noise.k, noise.smooth_sd))
+        table_cache(&CACHE, noise, |_| true, || RoundingTable::new(noise))
     }
 
-    fn new(lambda_e: f64, k: f64, smooth_sd: f64) -> Option<RoundingTable> {
+    fn new(noise: DarkNoise) -> Option<RoundingTable> {
+        let smooth_sd = noise.smooth_sd;
         if smooth_sd < ROUNDING_TABLE_MIN_SD {
             return None;
         }
         let nodes = (0..=ROUNDING_TABLE_NODES)
             .map(|j| {
                 let f = j as f64 / ROUNDING_TABLE_NODES as f64;
-                let px = RoundedPixel { lambda_e, k, dsnu_e: 0.0, offset_dn: f, nonlinearity: DnPolynomial::default() };
+                let px = RoundedPixel { offset_dn: f, ..RoundedPixel::dark(noise) };
                 let (m, v) = rounded_moments(&px, smooth_sd, f64::NEG_INFINITY, f64::INFINITY);
                 (m - f, v)
             })
@@ -1783,14 +1836,15 @@ impl RoundingTable {
 }
 
 /// What the rounded moments of a frame's dark pixels depend on, beside their level: their
-/// Poisson mean, electrons, the system gain, DN per electron, the Gaussian noise, DN, and
-/// the ADC's top, DN.
+/// Poisson mean, electrons, the system gain, DN per electron, the Gaussian noise, DN, the
+/// ADC's top, DN, and the width of the dither, DN.
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct DarkNoise {
     lambda_e: f64,
     k: f64,
     smooth_sd: f64,
     max: f64,
+    dither_dn: f64,
 }
 
 /// Recent tables and the noise each was built for.
@@ -1877,15 +1931,14 @@ impl ClipTable {
 
     /// The table over `[lo, hi]` DN for dark pixels of `noise`, clipped to `[0, max]` DN.
     fn new(noise: DarkNoise, range: [f64; 2]) -> ClipTable {
-        let DarkNoise { lambda_e, k, smooth_sd, max } = noise;
+        let (smooth_sd, max) = (noise.smooth_sd, noise.max);
         let density = ClipTable::density(noise);
         let [first, last] = ClipTable::span(density, range);
         let nodes = (first..=last)
             .into_par_iter()
             .map(|i| {
                 let base = i as f64 / density;
-                let px =
-                    RoundedPixel { lambda_e, k, dsnu_e: 0.0, offset_dn: base, nonlinearity: DnPolynomial::default() };
+                let px = RoundedPixel { offset_dn: base, ..RoundedPixel::dark(noise) };
                 rounded_moments(&px, smooth_sd, 0.0, max)
             })
             .collect();
@@ -2420,7 +2473,8 @@ mod tests {
         // same row drawn pixel by pixel, pooled over the row, within sampling error, in each
         // regime the moments cover: smooth noise (Gaussian moments), dark
         // pixels finely rounded (the table), dark pixels clipped at 0 DN (the clip table, with
-        // and without dark current: an 8-bit camera whose dark frames sit a DN or two above 0);
+        // and without dark current: an 8-bit camera whose dark frames sit a DN or two above 0;
+        // under a dither one DN wide, as the EMVA 1288 reference simulator adds);
         // and rows against the ADC's top, straight and bent (the censored Edgeworth moments);
         // not described: the same clipped dark pixels under a row offset (which moves the clip
         // row by row) with more counts in reach than a pixel's sum takes, and a row at the
@@ -2428,6 +2482,10 @@ mod tests {
         let (w, h, frames) = (64, 4, 4000);
         let mut row_noise = moment_test_model(12, 0.08, 4.0, 0.0, false);
         row_noise.effects.row_column_noise = RowColumnNoise { enabled: true, row_std_dn: 0.3, column_std_dn: 0.0 };
+        let dithered = |mut m: SensorModel| {
+            m.effects.quantization.dither_dn = 1.0;
+            m
+        };
         let mut full_well = moment_test_model(12, 0.1, 6.0, 60.0, false);
         full_well.effects.saturation = Saturation { enabled: true, full_well_e: 40_000.0 };
         // (model, photons, expected to be described)
@@ -2438,6 +2496,9 @@ mod tests {
             (moment_test_model_dark(12, 0.08, 4.0, 0.0, false, 0.0), 0.0, true),
             (moment_test_model_dark(12, 0.08, 4.0, 0.0, false, 30.0), 0.0, true),
             (moment_test_model_dark(8, 0.1, 4.3, 1.6, false, 400.0), 0.0, true),
+            (dithered(moment_test_model_dark(8, 0.1, 4.3, 1.6, false, 400.0)), 0.0, true),
+            (dithered(moment_test_model_dark(8, 0.05, 2.0, 0.0, false, 0.0)), 0.0, true),
+            (dithered(moment_test_model_dark(8, 0.02, 5.0, 8.0, false, 0.0)), 0.0, true),
             (moment_test_model(12, 0.1, 6.0, 60.0, false), 67_000.0, true),
             (moment_test_model(12, 0.1, 6.0, 60.0, false), 68_500.0, true),
             (moment_test_model(12, 0.1, 6.0, 60.0, true), 70_000.0, true),
@@ -2500,6 +2561,7 @@ mod tests {
                     dsnu_e: 0.0,
                     offset_dn: offset,
                     nonlinearity: DnPolynomial::default(),
+                    dither_dn: 0.0,
                 };
                 let (m_exact, v_exact) = rounded_moments(&px, read_sd_dn, 0.0, max);
                 let (m, v) = top_clipped_moments(mean, noise_dn * noise_dn, k.powi(3) * lambda, max);
