@@ -1118,9 +1118,6 @@ impl FrameSimulator<'_> {
         let dither_dn = if e.quantization.enabled { e.quantization.dither_dn } else { 0.0 };
         let g = self.nonlinearity_dn();
         let bends = !g.is_identity();
-        if let Some(described) = self.dark_row_moments(constants, r, photons, mean, var) {
-            return described;
-        }
         let (row, bounds, darkest) = match Dispatch::current().supported() {
             // SAFETY: `supported()` gives `Avx2Fma` only when this CPU has AVX2 and FMA.
             #[cfg(target_arch = "x86_64")]
@@ -1140,53 +1137,6 @@ impl FrameSimulator<'_> {
             }
         }
         self.exact_row_moments(constants, &self.row_inputs(constants, r, photons), mean, var)
-    }
-
-    /// [`FrameSimulator::row_moments`] of a dark row that reaches a clip, straight from the
-    /// dark tables ([`DarkLookup`]), the same values without the Gaussian pass and the
-    /// per-pixel inputs that the general path spends first; `None` where the general path
-    /// decides (a lit pixel or a hot pixel, a nonlinearity, dither, a row offset, a row whose
-    /// Gaussian moments hold, a pixel the tables do not serve).
-    fn dark_row_moments(
-        &self,
-        constants: &PixelConstants,
-        r: usize,
-        photons: &[f32],
-        mean: &mut [f64],
-        var: &mut [f64],
-    ) -> Option<bool> {
-        let q = self.model.effects.quantization;
-        let plain = !(q.enabled && q.dither_dn != 0.0) && self.row_sd == 0.0 && constants.hot_e_per_s.is_empty();
-        if !plain || !self.nonlinearity_dn().is_identity() || photons.iter().any(|&p| p > 0.0) {
-            return None;
-        }
-        let span = r * self.width..(r + 1) * self.width;
-        let dsnu = constants.dsnu_e.get(span.clone());
-        let offset = &constants.offset_dn[span];
-        let (k, lambda, pre_var) = (self.k, self.dark_mean, self.pre_sd * self.pre_sd);
-        // The Gaussian pass's bounds, as [`FrameSimulator::gaussian_moments`] computes them.
-        let vy = k * k * (lambda + pre_var) + self.post_sd * self.post_sd;
-        let (reach2, var_e) = (64.0 * vy, lambda + pre_var);
-        let (mut below_full_well, mut inside) = (true, true);
-        for (i, &o) in offset.iter().enumerate() {
-            let d = dsnu.map_or(0.0, |m| m[i]);
-            let headroom = self.full_well - (lambda + d);
-            below_full_well &= headroom > 0.0 && headroom * headroom > 64.0 * var_e;
-            let a = k * (lambda + d) + o;
-            let (low, high) = (a + 0.5, self.max + 0.5 - a);
-            inside &= low > 0.0 && high > 0.0 && low * low > reach2 && high * high > reach2;
-        }
-        if !below_full_well {
-            return Some(false);
-        }
-        if inside {
-            return None;
-        }
-        let dark = DarkLookup::new(self, constants);
-        for (i, &o) in offset.iter().enumerate() {
-            (mean[i], var[i]) = dark.moments(k * dsnu.map_or(0.0, |m| m[i]) + o)?;
-        }
-        Some(true)
     }
 
     /// What the moments of row `r` need of its pixels, as [`FrameSimulator::row`] adds them:
