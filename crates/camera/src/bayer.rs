@@ -118,10 +118,10 @@ fn mosaic_electrons(
         let e: f64 = (0..3).map(|k| row[k] * f64::from(photons[k])).sum();
         e.max(0.0) as f32
     };
+    // The camera equation is linear in radiance: one photons-per-nit factor per pixel (its
+    // fall-off) serves the three rendered channels.
+    let per_nit = photon_image(camera, &vec![1.0; w * h], spec.lens_transmittance, spec.exposure_s);
     if plan.is_identity() {
-        // The camera equation is linear in radiance: one photons-per-nit factor per pixel
-        // (its fall-off) serves the three rendered channels.
-        let per_nit = photon_image(camera, &vec![1.0; w * h], spec.lens_transmittance, spec.exposure_s);
         return radiance
             .iter()
             .zip(&per_nit)
@@ -133,8 +133,7 @@ fn mosaic_electrons(
     // plane is blurred on its own).
     let planes: Vec<Vec<f32>> = (0..3)
         .map(|k| {
-            let values: Vec<f32> = radiance.iter().map(|px| px[k]).collect();
-            let mut photons = photon_image(camera, &values, spec.lens_transmittance, spec.exposure_s);
+            let mut photons: Vec<f32> = radiance.iter().zip(&per_nit).map(|(px, &f)| px[k].max(0.0) * f).collect();
             apply_plan(&plan, camera, &mut photons, optics.as_ref());
             photons
         })
