@@ -26,6 +26,11 @@ pub struct DetectArgs {
     /// Weights to use instead of the built-in ones (a safetensors file `detector train` wrote).
     #[arg(long)]
     pub weights: Option<PathBuf>,
+    /// Wider images are resized to this width before the network reads them (boxes are given
+    /// in the image's own pixels): the width of the training images, 320 for the built-in
+    /// weights. 0 reads every image at its own size.
+    #[arg(long, default_value_t = scene_gen::detection::cnn::TRAINED_WIDTH_PX)]
+    pub input_width: usize,
 }
 
 /// One detection as a COCO results record, with the image it was found in.
@@ -58,6 +63,7 @@ pub fn run_detect(args: &DetectArgs) -> Result<(), CliError> {
     }
     let mut detector = load_detector(args.weights.as_ref())?;
     detector.min_score = args.min_score;
+    detector.input_width_px = (args.input_width > 0).then_some(args.input_width);
     // Every image is read before any output, so a bad one leaves no partial answer.
     let samples = args
         .images

@@ -33,6 +33,9 @@ static EMBEDDED_WEIGHTS: &[u8] =
 /// precision-recall curve, high enough to keep the list short.
 pub const DEFAULT_MIN_SCORE: f32 = 0.05;
 
+/// Width of the images the built-in weights were trained on (models/detector/README.md).
+pub const TRAINED_WIDTH_PX: usize = 320;
+
 /// The name of COCO category `id` (1..=10 the object classes, 11 threshold).
 #[must_use]
 pub fn category_name(id: u32) -> &'static str {
@@ -61,6 +64,11 @@ pub struct CnnDetector {
     network: Network,
     /// Reported detections score at least this.
     pub min_score: f32,
+    /// Wider images are resized to this width (aspect kept) before the network reads them,
+    /// and the boxes scaled back: a convolutional detector finds objects at the sizes in
+    /// pixels it was trained on, so a 1456 px frame read as it is loses most of them (AP@0.5
+    /// 0.08 against 0.92, docs/BENCHMARKS.md). `None` reads every image as it is.
+    pub input_width_px: Option<usize>,
 }
 
 impl CnnDetector {
@@ -80,10 +88,11 @@ impl CnnDetector {
         let weights: HashMap<String, Tensor> =
             candle_core::safetensors::load_buffer(bytes, &Device::Cpu).map_err(|e| CnnError::Weights(e.to_string()))?;
         let network = Network::from_weights(&weights).map_err(CnnError::Weights)?;
-        Ok(CnnDetector { network, min_score: DEFAULT_MIN_SCORE })
+        Ok(CnnDetector { network, min_score: DEFAULT_MIN_SCORE, input_width_px: Some(TRAINED_WIDTH_PX) })
     }
 
-    /// Detections in one 8-bit image, best first.
+    /// Detections in one 8-bit image, best first, in the image's own pixels (the network reads
+    /// it at [`CnnDetector::input_width_px`]).
     ///
     /// # Errors
     /// [`CnnError::BadImage`] for a buffer that does not match its size; candle's errors.
@@ -97,6 +106,23 @@ impl CnnDetector {
                 len: image.pixels.len(),
             });
         }
+        match self.input_width_px {
+            Some(width) if image.width > width.max(1) => {
+                let resized = resize_to_width(image, width.max(1));
+                let view = ImageView { pixels: &resized.pixels, width: resized.width, height: resized.height, ..image };
+                let (sx, sy) = (image.width as f64 / resized.width as f64, image.height as f64 / resized.height as f64);
+                let mut found = self.detect_as_is(view)?;
+                for d in &mut found {
+                    d.bbox = [d.bbox[0] * sx, d.bbox[1] * sy, d.bbox[2] * sx, d.bbox[3] * sy];
+                }
+                Ok(found)
+            }
+            _ => self.detect_as_is(image),
+        }
+    }
+
+    /// Detections in `image` read at its own size.
+    fn detect_as_is(&self, image: ImageView<'_>) -> Result<Vec<Detection>, CnnError> {
         let padded = (network::padded(image.width), network::padded(image.height));
         let input = network::input_tensor(&[image], padded)?;
         let out = self.network.forward(&input)?;
@@ -105,4 +131,28 @@ impl CnnDetector {
         let cells = (padded.0 / network::STRIDE_PX, padded.1 / network::STRIDE_PX);
         Ok(decode(&heat, &boxes, cells, (image.width, image.height), self.min_score))
     }
+}
+
+/// An image resized for the network.
+struct Resized {
+    pixels: Vec<u8>,
+    width: usize,
+    height: usize,
+}
+
+/// `image` resized to `width` (height in proportion, at least 1) with a triangle filter
+/// stretched over the scale factor, so that every input pixel counts, as a camera's own
+/// scaler or OpenCV's `INTER_AREA` would, rather than sampling every n-th pixel and keeping
+/// its noise and aliasing.
+fn resize_to_width(image: ImageView<'_>, width: usize) -> Resized {
+    let height = ((image.height as f64 * width as f64 / image.width as f64).round() as usize).max(1);
+    let (w, h) = (image.width as u32, image.height as u32);
+    let pixels = if image.channels == 3 {
+        let buffer = image::RgbImage::from_raw(w, h, image.pixels.to_vec()).expect("size checked by detect");
+        image::imageops::resize(&buffer, width as u32, height as u32, image::imageops::FilterType::Triangle).into_raw()
+    } else {
+        let buffer = image::GrayImage::from_raw(w, h, image.pixels.to_vec()).expect("size checked by detect");
+        image::imageops::resize(&buffer, width as u32, height as u32, image::imageops::FilterType::Triangle).into_raw()
+    };
+    Resized { pixels, width, height }
 }
