@@ -227,16 +227,46 @@ fn bad_camera_specs_exit_2_without_output() {
         assert_eq!(out.status.code(), Some(2), "{camera}: {}", String::from_utf8_lossy(&out.stderr));
         assert!(out.stdout.is_empty(), "{camera}: no partial output");
     }
-    for extra in
-        [["--seeds", "3..3"], ["--speed-m-s", "0"], ["--output", "auto"], ["--detector", " "], ["--bounce-rays", "17"]]
-    {
+    for extra in [
+        ["--seeds", "3..3"],
+        ["--speed-m-s", "0"],
+        ["--output", "auto"],
+        ["--detector", " "],
+        ["--bounce-rays", "17"],
+        ["--max-width", "0"],
+        ["--max-width", "wide"],
+    ] {
         let out = cli(&["--camera", "IMX172", "--frames", "1", "--max-width", "32", extra[0], extra[1]]);
         assert_eq!(out.status.code(), Some(2), "{extra:?}: {}", String::from_utf8_lossy(&out.stderr));
+        assert!(out.stdout.is_empty(), "{extra:?}: no partial output");
     }
     // A negative speed reaches the range check (not clap's "unexpected argument").
     let out = cli(&["--camera", "IMX172", "--speed-m-s", "-1"]);
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("must be a positive number"));
+}
+
+#[test]
+fn native_width_judges_every_pixel_of_the_sensor() {
+    // A camera file that bins to 64 px: `--max-width native` overrides it, and the frames are
+    // the sensor's own 640 x 480 (PYTHON300), so ORB finds far more keypoints than at 64 px.
+    let dir = std::env::temp_dir().join(format!("scene-gen-native-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let camera = dir.join("binned.toml");
+    std::fs::write(&camera, "sensor = \"PYTHON300\"\nfocal_mm = 3.0\nmax_width_px = 64\n").unwrap();
+    let run = |width: &str| {
+        let out = cli(&["--camera", camera.to_str().unwrap(), "--frames", "2", "--max-width", width, "--json"]);
+        assert!(out.status.success(), "{width}: {}", String::from_utf8_lossy(&out.stderr));
+        serde_json::from_slice::<serde_json::Value>(&out.stdout).expect("JSON")
+    };
+    let native = run("native");
+    let own = run("64");
+    assert_eq!(native["config"]["max_width_px"], serde_json::Value::Null);
+    assert_eq!(native["camera"]["max_width_px"], serde_json::Value::Null, "{}", native["camera"]);
+    assert_eq!(own["config"]["max_width_px"], serde_json::json!(64));
+    let keypoints = |v: &serde_json::Value| v["scenarios"]["day"]["mean_keypoints"].as_f64().unwrap();
+    assert!(keypoints(&native) > 4.0 * keypoints(&own), "{} against {}", keypoints(&native), keypoints(&own));
+    std::fs::remove_dir_all(dir).ok();
 }
 
 #[test]

@@ -4,7 +4,9 @@
 use anyhow::anyhow;
 use clap::Args;
 use scene_gen::camera_spec::CameraSpec;
-use scene_gen::evaluate::{DetectorChoice, EvalConfig, EvalError, Evaluation, ScenarioScore, evaluate_with_progress};
+use scene_gen::evaluate::{
+    DetectorChoice, EvalConfig, EvalError, Evaluation, FrameWidth, ScenarioScore, evaluate_with_progress,
+};
 use scene_gen::isp::OutputRule;
 use scene_gen::render::RenderSettings;
 use scene_gen::seeds::{SeedRange, SeedsError};
@@ -24,9 +26,10 @@ pub struct EvaluateArgs {
     /// Anchor frames per house, evenly spaced along the walk.
     #[arg(long, default_value_t = scene_gen::evaluate::DEFAULT_FRAMES_PER_SCENE)]
     pub frames: u32,
-    /// Bin the sensor down to at most this width in pixels (keeps the field of view).
-    #[arg(long, default_value_t = scene_gen::evaluate::DEFAULT_MAX_WIDTH_PX)]
-    pub max_width: u32,
+    /// Bin the sensor down to at most this width in pixels (keeps the field of view), or
+    /// `native`: every pixel of the sensor (a camera file's own `max_width_px` is ignored).
+    #[arg(long, default_value_t = scene_gen::evaluate::FrameWidth::AtMost(scene_gen::evaluate::DEFAULT_MAX_WIDTH_PX).to_string())]
+    pub max_width: String,
     /// Agent walking speed, m/s (the 0.5 s threshold window is 0.5 m of walk at 1.0 m/s).
     #[arg(long, allow_negative_numbers = true, default_value_t = scene_gen::evaluate::DEFAULT_SPEED_M_S)]
     pub speed_m_s: f64,
@@ -115,13 +118,14 @@ fn summary(e: &Evaluation) -> String {
 }
 
 pub fn run(args: &EvaluateArgs) -> Result<(), CliError> {
-    let spec = CameraSpec::from_arg(&args.camera).map_err(bad_input)?;
+    let mut spec = CameraSpec::from_arg(&args.camera).map_err(bad_input)?;
     let seeds = parse_seeds(&args.seeds)?;
     if args.frames == 0 {
         return Err(bad_input(anyhow!("--frames must be at least 1")));
     }
-    if args.max_width == 0 {
-        return Err(bad_input(anyhow!("--max-width must be at least 1")));
+    let width = FrameWidth::parse(&args.max_width).map_err(|e| bad_input(anyhow!("--max-width: {e}")))?;
+    if width == FrameWidth::Native {
+        spec.max_width_px = None;
     }
     if !(args.speed_m_s.is_finite() && args.speed_m_s > 0.0) {
         return Err(bad_input(anyhow!("--speed-m-s must be a positive number of m/s")));
@@ -146,7 +150,7 @@ pub fn run(args: &EvaluateArgs) -> Result<(), CliError> {
         render,
         render_name,
         frames_per_scene: args.frames,
-        max_width_px: Some(args.max_width),
+        max_width_px: width.max_width_px(),
         speed_m_s: args.speed_m_s,
         output,
         min_usable_images: args.min_usable,

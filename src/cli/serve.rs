@@ -5,7 +5,7 @@ use std::io::IsTerminal;
 
 use anyhow::anyhow;
 use clap::Args;
-use scene_gen::evaluate::DetectorChoice;
+use scene_gen::evaluate::{DetectorChoice, FrameWidth};
 use scene_gen::serve::{PROTOCOL, ServeDefaults, parse_seeds, serve};
 
 use super::house::HouseArgs;
@@ -19,10 +19,10 @@ pub struct ServeArgs {
     /// Default anchor frames per house.
     #[arg(long, default_value_t = scene_gen::evaluate::DEFAULT_FRAMES_PER_SCENE)]
     pub frames: u32,
-    /// Default binned image width in pixels (a request's `max_width` or its camera's
-    /// `max_width_px` wins).
-    #[arg(long, default_value_t = scene_gen::evaluate::DEFAULT_MAX_WIDTH_PX)]
-    pub max_width: u32,
+    /// Default binned image width in pixels, or `native` (a request's `max_width` or its
+    /// camera's `max_width_px` wins).
+    #[arg(long, default_value_t = scene_gen::evaluate::FrameWidth::AtMost(scene_gen::evaluate::DEFAULT_MAX_WIDTH_PX).to_string())]
+    pub max_width: String,
     /// The detector of every request: `cnn` (the learned detector), `model` (the fast
     /// detectability model) or an external command.
     #[arg(long, default_value = "cnn")]
@@ -37,13 +37,11 @@ pub fn run(args: &ServeArgs) -> Result<(), CliError> {
     if args.frames == 0 {
         return Err(bad_input(anyhow!("--frames must be at least 1")));
     }
-    if args.max_width == 0 {
-        return Err(bad_input(anyhow!("--max-width must be at least 1")));
-    }
+    let max_width = FrameWidth::parse(&args.max_width).map_err(|e| bad_input(anyhow!("--max-width: {e}")))?;
     let house = args.house.checked()?;
     let detector =
         DetectorChoice::parse(&args.detector).ok_or_else(|| bad_input(anyhow!("--detector: the command is empty")))?;
-    let defaults = ServeDefaults { seeds, frames: args.frames, max_width: args.max_width, house, detector };
+    let defaults = ServeDefaults { seeds, frames: args.frames, max_width, house, detector };
     let stdin = std::io::stdin();
     if stdin.is_terminal() {
         eprintln!(

@@ -107,6 +107,82 @@ use scene_gen_scene::trajectory::{self, Trajectory, TrajectoryParams};
 pub const DEFAULT_FRAMES_PER_SCENE: u32 = 25;
 /// Default binned width of the evaluation images, px.
 pub const DEFAULT_MAX_WIDTH_PX: u32 = 320;
+
+/// How wide the evaluator's frames are: the sensor's own pixels, or the sensor binned down to
+/// at most a width. Written `native` or a whole number of pixels, on the command line and in
+/// configuration files alike.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FrameWidth {
+    /// Every pixel of the sensor.
+    Native,
+    /// Binned to at most this many pixels across (at least 1), the field of view kept.
+    AtMost(u32),
+}
+
+impl FrameWidth {
+    /// `native` or a width of at least 1 pixel.
+    ///
+    /// # Errors
+    /// A sentence saying what was expected, for anything else.
+    pub fn parse(text: &str) -> Result<FrameWidth, String> {
+        let text = text.trim();
+        if text.eq_ignore_ascii_case("native") {
+            return Ok(FrameWidth::Native);
+        }
+        match text.parse::<u32>() {
+            Ok(0) => Err("0: must be at least 1 pixel, or `native`".to_string()),
+            Ok(px) => Ok(FrameWidth::AtMost(px)),
+            Err(_) => Err(format!("`{text}`: expected `native` or a width in pixels")),
+        }
+    }
+
+    /// The binning width of [`EvalConfig::max_width_px`]: `None` for the native width.
+    #[must_use]
+    pub fn max_width_px(self) -> Option<u32> {
+        match self {
+            FrameWidth::Native => None,
+            FrameWidth::AtMost(px) => Some(px),
+        }
+    }
+}
+
+impl std::fmt::Display for FrameWidth {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            FrameWidth::Native => f.write_str("native"),
+            FrameWidth::AtMost(px) => write!(f, "{px}"),
+        }
+    }
+}
+
+impl Serialize for FrameWidth {
+    /// `"native"`, or the width as a number.
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        match self {
+            FrameWidth::Native => serializer.serialize_str("native"),
+            FrameWidth::AtMost(px) => serializer.serialize_u32(*px),
+        }
+    }
+}
+
+impl<'de> serde::Deserialize<'de> for FrameWidth {
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        #[derive(serde::Deserialize)]
+        #[serde(untagged)]
+        enum Written {
+            Px(i64),
+            Word(String),
+        }
+        let parsed = match Written::deserialize(deserializer)? {
+            Written::Px(px) => match u32::try_from(px) {
+                Ok(px) if px > 0 => Ok(FrameWidth::AtMost(px)),
+                _ => Err(format!("{px}: must be at least 1 pixel, or `native`")),
+            },
+            Written::Word(word) => FrameWidth::parse(&word),
+        };
+        parsed.map_err(serde::de::Error::custom)
+    }
+}
 /// Default agent speed, m/s ([`trajectory::DEFAULT_SPEED_M_PER_S`], which says why).
 pub const DEFAULT_SPEED_M_S: f64 = trajectory::DEFAULT_SPEED_M_PER_S as f64;
 /// ORB features per frame (the reference system's 2000, docs/REFERENCE.md).
@@ -287,7 +363,8 @@ impl Serialize for DetectorChoice {
 pub struct EvalConfig {
     /// Anchor poses per house, evenly spaced along the walk.
     pub frames_per_scene: u32,
-    /// Bin the sensor down to at most this width (`None`: the spec's own `max_width_px`).
+    /// Bin the sensor down to at most this width (`None`: the spec's own `max_width_px`, the
+    /// sensor's native width for a catalog sensor; [`FrameWidth::max_width_px`]).
     pub max_width_px: Option<u32>,
     /// Ray-tracer settings.
     #[serde(skip)]
@@ -1193,6 +1270,27 @@ fn compute(
 mod tests {
     use super::*;
     use scene_gen_camera::sensor::Catalog;
+
+    #[test]
+    fn frame_width_reads_native_or_a_positive_width_and_writes_it_back() {
+        #[derive(serde::Deserialize, Serialize)]
+        struct Holder {
+            w: FrameWidth,
+        }
+        for (text, want) in [("w = \"native\"", FrameWidth::Native), ("w = 320", FrameWidth::AtMost(320))] {
+            let read: Holder = toml::from_str(text).unwrap();
+            assert_eq!(read.w, want, "{text}");
+            assert_eq!(toml::to_string(&read).unwrap().trim(), text);
+            assert_eq!(FrameWidth::parse(&want.to_string()), Ok(want));
+        }
+        for bad in ["w = 0", "w = -3", "w = \"wide\"", "w = 5000000000", "w = 1.5"] {
+            assert!(toml::from_str::<Holder>(bad).is_err(), "{bad}");
+        }
+        assert_eq!(FrameWidth::parse(" Native "), Ok(FrameWidth::Native));
+        assert!(FrameWidth::parse("0").is_err() && FrameWidth::parse("").is_err());
+        assert_eq!(FrameWidth::Native.max_width_px(), None);
+        assert_eq!(FrameWidth::AtMost(64).max_width_px(), Some(64));
+    }
 
     /// Counting each threshold over its box's pixels gives the counts of the whole frame, on
     /// the poses before every crossing of a house (where thresholds are near, below and beside

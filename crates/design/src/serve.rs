@@ -27,8 +27,9 @@
 //! request only:
 //! * `seeds`: `"A..B"` (half-open), `"A..=B"`, one seed `3`, or a list `[0, 4, 9]`;
 //! * `frames`: anchor frames per house (at least 1);
-//! * `max_width`: bin the sensor to at most this many pixels across (at least 1); without it
-//!   the camera's own `max_width_px`, else the server default;
+//! * `max_width`: bin the sensor to at most this many pixels across (at least 1), or
+//!   `"native"` for every pixel of the sensor; without it the camera's own `max_width_px`, else
+//!   the server default;
 //! * `weights`: fitness weights, any of `{"threshold", "ap50", "inliers", "inlier_ratio"}`
 //!   (the rest keep the TaCOS values);
 //! * `id`: any JSON value, echoed in the response (`null` when absent).
@@ -85,7 +86,7 @@ use std::time::Instant;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
-use crate::evaluate::{self, DetectorChoice, EvalConfig, EvalError, Fitness, FitnessWeights, Scenarios};
+use crate::evaluate::{self, DetectorChoice, EvalConfig, EvalError, Fitness, FitnessWeights, FrameWidth, Scenarios};
 use scene_gen_camera::camera_spec::{CameraSpec, SpecError};
 use scene_gen_camera::sensor::Catalog;
 use scene_gen_core::seeds::SeedRange;
@@ -108,7 +109,7 @@ pub const MAX_SEEDS: usize = 4096;
 pub struct ServeDefaults {
     pub seeds: Vec<u64>,
     pub frames: u32,
-    pub max_width: u32,
+    pub max_width: FrameWidth,
     /// The houses every request is evaluated in (`serve --envelope ...`).
     pub house: HouseOptions,
     /// The detector of every request (`serve --detector`).
@@ -121,7 +122,7 @@ impl Default for ServeDefaults {
         ServeDefaults {
             seeds: vec![0],
             frames: evaluate::DEFAULT_FRAMES_PER_SCENE,
-            max_width: evaluate::DEFAULT_MAX_WIDTH_PX,
+            max_width: FrameWidth::AtMost(evaluate::DEFAULT_MAX_WIDTH_PX),
             house: HouseOptions::default(),
             detector: DetectorChoice::default(),
         }
@@ -205,7 +206,7 @@ pub struct Request {
     pub camera: Option<CameraField>,
     pub seeds: Option<SeedsField>,
     pub frames: Option<u32>,
-    pub max_width: Option<u32>,
+    pub max_width: Option<FrameWidth>,
     pub weights: Option<WeightsField>,
 }
 
@@ -215,7 +216,7 @@ pub struct Job {
     pub camera: CameraSpec,
     pub seeds: Vec<u64>,
     pub frames: u32,
-    pub max_width: u32,
+    pub max_width: FrameWidth,
     pub weights: FitnessWeights,
     pub house: HouseOptions,
     pub detector: DetectorChoice,
@@ -227,7 +228,7 @@ impl Job {
     pub fn config(&self) -> EvalConfig {
         EvalConfig {
             frames_per_scene: self.frames,
-            max_width_px: Some(self.max_width),
+            max_width_px: self.max_width.max_width_px(),
             weights: self.weights,
             house: self.house.clone(),
             detector: self.detector.clone(),
@@ -244,7 +245,7 @@ pub struct EvalResponse {
     pub camera: CameraSpec,
     pub seeds: Vec<u64>,
     pub frames: u32,
-    pub max_width: u32,
+    pub max_width: FrameWidth,
     pub fitness: Fitness,
     pub scenarios: Scenarios,
     pub cached: bool,
@@ -278,7 +279,7 @@ pub struct Genes {
 pub struct DefaultsOut {
     pub seeds: Vec<u64>,
     pub frames: u32,
-    pub max_width: u32,
+    pub max_width: FrameWidth,
     #[serde(skip_serializing_if = "HouseOptions::is_default")]
     pub house: HouseOptions,
     pub detector: DetectorChoice,
@@ -409,11 +410,14 @@ pub fn job_of(request: &Request, defaults: &ServeDefaults, catalog: &Catalog) ->
         None => defaults.seeds.clone(),
     };
     let frames = positive("frames", request.frames, defaults.frames)?;
-    let max_width = positive("max_width", request.max_width, defaults.max_width)?;
     let weights = weights_of(request.weights.as_ref())?;
-    let camera = camera_of(camera_field, catalog)?;
+    let mut camera = camera_of(camera_field, catalog)?;
     // The request's width wins, then the camera's own, then the server's.
-    let max_width = if request.max_width.is_some() { max_width } else { camera.max_width_px.unwrap_or(max_width) };
+    let max_width =
+        request.max_width.unwrap_or_else(|| camera.max_width_px.map_or(defaults.max_width, FrameWidth::AtMost));
+    if max_width == FrameWidth::Native {
+        camera.max_width_px = None;
+    }
     Ok(Job {
         camera,
         seeds,
@@ -677,6 +681,8 @@ mod tests {
         assert_eq!(kind(&v), "bad_request");
         let v = answer(r#"{"id": 2, "camera": "IMX174", "max_width": 0}"#);
         assert_eq!(kind(&v), "bad_request");
+        let v = answer(r#"{"id": 2, "camera": "IMX174", "max_width": "full"}"#);
+        assert_eq!(kind(&v), "bad_request");
         let v = answer(r#"{"id": 2, "camera": "IMX174", "seeds": "5..2"}"#);
         assert_eq!(kind(&v), "bad_request");
         let v = answer(r#"{"id": 2, "camera": "IMX174", "seeds": []}"#);
@@ -717,12 +723,17 @@ mod tests {
     #[test]
     fn jobs_take_defaults_and_overrides() {
         let catalog = Catalog::embedded();
-        let defaults = ServeDefaults { seeds: vec![3, 4], frames: 6, max_width: 100, ..ServeDefaults::default() };
+        let defaults = ServeDefaults {
+            seeds: vec![3, 4],
+            frames: 6,
+            max_width: FrameWidth::AtMost(100),
+            ..ServeDefaults::default()
+        };
         let req: Request = serde_json::from_str(r#"{"camera": "imx174,focal_mm=6"}"#).unwrap();
         let job = job_of(&req, &defaults, &catalog).unwrap();
         assert_eq!(job.camera.sensor, "IMX174", "the catalog's spelling");
         assert_eq!(job.camera.focal_mm, 6.0);
-        assert_eq!((job.seeds.clone(), job.frames, job.max_width), (vec![3, 4], 6, 100));
+        assert_eq!((job.seeds.clone(), job.frames, job.max_width), (vec![3, 4], 6, FrameWidth::AtMost(100)));
         assert_eq!(job.weights, FitnessWeights::default());
         assert_eq!(job.config().max_width_px, Some(100));
         assert_eq!(job.config().frames_per_scene, 6);
@@ -734,16 +745,27 @@ mod tests {
         .unwrap();
         let job = job_of(&req, &defaults, &catalog).unwrap();
         assert_eq!(job.camera.pitch_deg, 12.5);
-        assert_eq!((job.seeds.clone(), job.frames, job.max_width), (vec![9, 1], 2, 80), "camera's own width");
+        assert_eq!(
+            (job.seeds.clone(), job.frames, job.max_width),
+            (vec![9, 1], 2, FrameWidth::AtMost(80)),
+            "camera's own width"
+        );
         assert_eq!(job.weights.inliers, 0.01);
         assert_eq!(job.weights.ap50, 1.0);
+
+        let req: Request =
+            serde_json::from_str(r#"{"camera": {"sensor": "IMX174", "max_width_px": 80}, "max_width": "native"}"#)
+                .unwrap();
+        let job = job_of(&req, &defaults, &catalog).unwrap();
+        assert_eq!(job.max_width, FrameWidth::Native);
+        assert_eq!((job.config().max_width_px, job.camera.max_width_px), (None, None), "every pixel of the sensor");
 
         let req: Request = serde_json::from_str(
             r#"{"camera": {"sensor": "IMX174", "max_width_px": 80}, "max_width": 64, "seeds": 5}"#,
         )
         .unwrap();
         let job = job_of(&req, &defaults, &catalog).unwrap();
-        assert_eq!((job.seeds.clone(), job.max_width), (vec![5], 64), "the request's width wins");
+        assert_eq!((job.seeds.clone(), job.max_width), (vec![5], FrameWidth::AtMost(64)), "the request's width wins");
         let req: Request = serde_json::from_str(r#"{"camera": "IMX174", "seeds": "1..=2"}"#).unwrap();
         assert_eq!(job_of(&req, &defaults, &catalog).unwrap().seeds, vec![1, 2]);
     }

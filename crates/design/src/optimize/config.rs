@@ -10,7 +10,7 @@ use std::sync::OnceLock;
 
 use serde::{Deserialize, Serialize};
 
-use crate::evaluate::{DetectorChoice, EvalConfig, FitnessWeights};
+use crate::evaluate::{DetectorChoice, EvalConfig, FitnessWeights, FrameWidth};
 use scene_gen_camera::camera_spec::CameraSpec;
 use scene_gen_scene::house::HouseOptions;
 
@@ -116,7 +116,7 @@ pub struct Evaluation {
     #[serde(default = "d_frames")]
     pub frames_per_scene: u32,
     #[serde(default = "d_max_width")]
-    pub max_width_px: u32,
+    pub max_width_px: FrameWidth,
     #[serde(default = "d_fitness")]
     pub fitness: FitnessChoice,
     /// `cnn` (the learned detector), `model` (the fast detectability model) or an external
@@ -232,7 +232,7 @@ fn d_seeds() -> Vec<u64> {
 fn d_frames() -> u32 {
     embedded().evaluation.frames_per_scene
 }
-fn d_max_width() -> u32 {
+fn d_max_width() -> FrameWidth {
     embedded().evaluation.max_width_px
 }
 fn d_fitness() -> FitnessChoice {
@@ -415,9 +415,6 @@ impl OptimizeConfig {
         if ev.frames_per_scene == 0 {
             return bad("evaluation.frames_per_scene", "must be at least 1".into());
         }
-        if ev.max_width_px == 0 {
-            return bad("evaluation.max_width_px", "must be at least 1".into());
-        }
         if DetectorChoice::parse(&ev.detector).is_none() {
             return bad("evaluation.detector", "must be \"cnn\", \"model\" or a detector command".into());
         }
@@ -438,7 +435,7 @@ impl OptimizeConfig {
         let w = self.evaluation.weights;
         EvalConfig {
             frames_per_scene: self.evaluation.frames_per_scene,
-            max_width_px: Some(self.evaluation.max_width_px),
+            max_width_px: self.evaluation.max_width_px.max_width_px(),
             weights: FitnessWeights {
                 threshold: w.threshold,
                 ap50: w.ap50,

@@ -6,6 +6,7 @@ use rand::Rng;
 use serde::{Deserialize, Serialize};
 
 use super::config::{GeneRange, OptimizeConfig};
+use crate::evaluate::FrameWidth;
 use scene_gen_camera::camera_spec::CameraSpec;
 use scene_gen_camera::sensor::Catalog;
 
@@ -115,7 +116,12 @@ impl Space {
             .filter(|(_, r)| r.enabled)
             .map(|(name, range)| Gene { name, range })
             .collect();
-        Space { sensors, sensor_enabled: config.genes.sensor.enabled, base_sensor, genes, base: config.camera.clone() }
+        let mut base = config.camera.clone();
+        if config.evaluation.max_width_px == FrameWidth::Native {
+            // `evaluation.max_width_px` decides the frame width, the camera table's binning too.
+            base.max_width_px = None;
+        }
+        Space { sensors, sensor_enabled: config.genes.sensor.enabled, base_sensor, genes, base }
     }
 
     /// A genome drawn uniformly: sensor over the catalog, each gene over its range.
