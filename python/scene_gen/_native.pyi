@@ -1,6 +1,6 @@
 """Type stubs of the native module (crates/python). The public API is the scene_gen package."""
 
-from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, final
+from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, Union, final
 
 __all__ = ["__version__", "Camera", "Dataset", "Scene", "catalog_json", "categories_json", "evaluate", "generate", "optimize", "optimize_config", "render", "score_candidates", "seeds"]
 
@@ -83,7 +83,7 @@ def evaluate(
     camera: Camera,
     seeds: Sequence[int],
     frames: Optional[int] = None,
-    max_width: Optional[int] = None,
+    max_width: Optional[Union[int, str]] = None,
     detector: Optional[str] = None,
     envelope: Optional[str] = None,
     min_room: Optional[float] = None,

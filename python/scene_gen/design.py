@@ -38,7 +38,7 @@ def evaluate(
     camera: CameraLike,
     seeds: Seeds = range(1),
     frames: Optional[int] = None,
-    max_width: Optional[int] = None,
+    max_width: Optional[Union[int, str]] = None,
     detector: Optional[str] = None,
     envelope: Optional[Envelope] = None,
     min_room: Optional[float] = None,
@@ -49,7 +49,8 @@ def evaluate(
     """Scores ``camera`` walking the houses of ``seeds`` by day and by night, as
     ``scene-gen evaluate --json`` does: threshold sightings in time, detection AP@0.5 and ORB
     tracking per scenario, and the fitness (``result["fitness"]["mean"]``). ``frames`` anchor
-    frames per house and ``max_width`` the binned width default to the evaluator's; ``detector``
+    frames per house and ``max_width`` the binned width default to the evaluator's (``"native"``
+    judges every pixel of the sensor); ``detector``
     is ``"cnn"`` (the learned detector, the default), ``"model"`` (the fast detectability model)
     or a plug-in command (the plug-in protocol)."""
     result = _native.evaluate(

@@ -33,6 +33,18 @@ def test_evaluate_refuses_bad_input():
         sg.evaluate(CAMERA, seeds="zero..two")
 
 
+def test_evaluate_judges_the_native_width_as_the_command_line(cli):
+    args = ["--camera", "PYTHON300,focal_mm=3", "--frames", 1, "--max-width", "native"]
+    expected = json.loads(cli("evaluate", *args, "--json"))
+    result = sg.evaluate("PYTHON300,focal_mm=3", frames=1, max_width="native")
+    assert result == expected
+    assert result["config"]["max_width_px"] is None
+    with pytest.raises(ValueError, match="max_width"):
+        sg.evaluate(CAMERA, frames=1, max_width="wide")
+    with pytest.raises(ValueError, match="max_width"):
+        sg.evaluate(CAMERA, frames=1, max_width=0)
+
+
 DATASET = dict(seeds="0..2", frames=3, max_width=96, quality="preview")
 
 

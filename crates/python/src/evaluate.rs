@@ -3,11 +3,29 @@
 use std::path::PathBuf;
 
 use pyo3::prelude::*;
-use scene_gen::evaluate::{DetectorChoice, EvalConfig, EvalError, evaluate_with_progress};
+use scene_gen::evaluate::{DetectorChoice, EvalConfig, EvalError, FrameWidth, evaluate_with_progress};
 
 use crate::camera::Camera;
 use crate::progress::Callback;
 use crate::{bad_input, failure, house};
+
+/// A frame width as Python gives it: a number of pixels or the word `"native"`.
+#[derive(FromPyObject)]
+pub enum WidthArg {
+    Px(i64),
+    Word(String),
+}
+
+impl WidthArg {
+    /// The width this argument names ([`FrameWidth::parse`]).
+    fn frame_width(&self) -> PyResult<FrameWidth> {
+        let parsed = match self {
+            WidthArg::Px(px) => FrameWidth::parse(&px.to_string()),
+            WidthArg::Word(word) => FrameWidth::parse(word),
+        };
+        parsed.map_err(|e| bad_input(format!("max_width: {e}")))
+    }
+}
 
 /// Evaluates `camera` on the houses of `seeds` as `scene-gen evaluate --json` does; returns the
 /// evaluation as JSON. The GIL is released while Rust works.
@@ -19,7 +37,7 @@ pub fn evaluate(
     camera: &Camera,
     seeds: Vec<u64>,
     frames: Option<u32>,
-    max_width: Option<u32>,
+    max_width: Option<WidthArg>,
     detector: Option<&str>,
     envelope: Option<&str>,
     min_room: Option<f32>,
@@ -31,8 +49,10 @@ pub fn evaluate(
     if frames == Some(0) {
         return Err(bad_input("frames must be at least 1"));
     }
-    if max_width == Some(0) {
-        return Err(bad_input("max_width must be at least 1"));
+    let max_width = max_width.as_ref().map(WidthArg::frame_width).transpose()?;
+    let mut spec = camera.spec.clone();
+    if max_width == Some(FrameWidth::Native) {
+        spec.max_width_px = None;
     }
     let detector = match detector {
         None => DetectorChoice::default(),
@@ -41,13 +61,13 @@ pub fn evaluate(
     let house = house::checked_options(envelope, min_room, rooms, furniture)?;
     let config = EvalConfig {
         frames_per_scene: frames.unwrap_or(defaults.frames_per_scene),
-        max_width_px: max_width.or(defaults.max_width_px),
+        max_width_px: max_width.map_or(defaults.max_width_px, FrameWidth::max_width_px),
         detector,
         house,
         ..defaults
     };
     let callback = Callback::new(progress, 0);
-    let evaluation = py.detach(|| evaluate_with_progress(&camera.spec, &seeds, &config, &callback));
+    let evaluation = py.detach(|| evaluate_with_progress(&spec, &seeds, &config, &callback));
     callback.finish()?;
     let mut evaluation = evaluation.map_err(|e| match e {
         EvalError::Spec(_) | EvalError::NoSeeds | EvalError::NoFrames | EvalError::BadSpeed(_) => bad_input(e),
