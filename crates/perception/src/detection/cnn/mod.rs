@@ -66,8 +66,8 @@ pub struct CnnDetector {
     pub min_score: f32,
     /// Wider images are resized to this width (aspect kept) before the network reads them,
     /// and the boxes scaled back: a convolutional detector finds objects at the sizes in
-    /// pixels it was trained on, so a 1456 px frame read as it is loses most of them (AP@0.5
-    /// 0.08 against 0.92, docs/BENCHMARKS.md). `None` reads every image as it is.
+    /// pixels it was trained on, so 1280 px frames read as they are lose most of them (AP@0.5
+    /// 0.105 against 0.600 resized, docs/BENCHMARKS.md). `None` reads every image as it is.
     pub input_width_px: Option<usize>,
 }
 
