@@ -118,7 +118,14 @@ fn empty_input_exits_zero_with_no_output() {
 
 #[test]
 fn bad_defaults_are_usage_errors() {
-    for args in [["--frames", "0"], ["--max-width", "0"], ["--seeds", "5..2"], ["--seeds", "x"], ["--detector", " "]] {
+    for args in [
+        ["--frames", "0"],
+        ["--max-width", "0"],
+        ["--max-width", "full"],
+        ["--seeds", "5..2"],
+        ["--seeds", "x"],
+        ["--detector", " "],
+    ] {
         let out = serve_cmd(&args).stdin(Stdio::null()).output().unwrap();
         assert_eq!(out.status.code(), Some(2), "{args:?}");
         assert!(out.stdout.is_empty());
