@@ -1358,7 +1358,7 @@ impl FrameSimulator<'_> {
         let k = self.k;
         let g = self.nonlinearity_dn();
         let dark = DarkLookup::new(self, constants);
-        let (smooth_sd, dither_dn, row_var) = (dark.noise.smooth_sd, dark.noise.dither_dn, self.row_sd * self.row_sd);
+        let (smooth_sd, dither_dn, row_var) = (dark.noise.smooth_sd, dark.noise.dither_dn, dark.row_var);
         // Without a nonlinearity, rounding that is smooth at one Poisson mean is smooth at
         // every larger one (the lattice's terms fall, the variance grows): the smallest mean
         // shown smooth so far spares the larger ones the test.
@@ -1704,8 +1704,7 @@ fn top_clipped_moments(mean_dn: f64, var_dn2: f64, k3_dn3: f64, max: f64) -> (f6
         return (mean_dn, var_dn2 + 1.0 / 12.0);
     }
     let s = k3_dn3 / (var_dn2 * sd) / 6.0;
-    let pdf = (-0.5 * a * a).exp() / (std::f64::consts::TAU).sqrt();
-    let cdf = 0.5 * libm::erfc(-a / std::f64::consts::SQRT_2);
+    let (pdf, cdf) = (normal_pdf(a), normal_cdf(a));
     // Below the clip: its mass, and the first two moments of z = (y - mean) / sd there.
     let below = cdf - s * (a * a - 1.0) * pdf;
     let m1 = -pdf - s * a * a * a * pdf;
@@ -1716,9 +1715,15 @@ fn top_clipped_moments(mean_dn: f64, var_dn2: f64, k3_dn3: f64, max: f64) -> (f6
     (mean_dn + e1, (e2 - e1 * e1).max(0.0))
 }
 
-/// The standard normal distribution function.
+/// The standard normal distribution function (libm's erfc, exact to rounding: the moments
+/// these serve are compared at 1e-5 DN, beyond `scene_gen_core::stats::normal_tail`'s fit).
 fn normal_cdf(z: f64) -> f64 {
     0.5 * libm::erfc(-z / std::f64::consts::SQRT_2)
+}
+
+/// The standard normal density.
+fn normal_pdf(z: f64) -> f64 {
+    (-0.5 * z * z).exp() / std::f64::consts::TAU.sqrt()
 }
 
 /// `P(sd Z + dither U < t)`, `Z` standard normal and `U` uniform on `[-1/2, 1/2]`: the mean of
@@ -1729,7 +1734,7 @@ fn dithered_cdf(t: f64, sd: f64, dither: f64) -> f64 {
     if sd <= 0.0 {
         return (t / dither + 0.5).clamp(0.0, 1.0);
     }
-    let psi = |z: f64| z * normal_cdf(z) + (-0.5 * z * z).exp() / std::f64::consts::TAU.sqrt();
+    let psi = |z: f64| z * normal_cdf(z) + normal_pdf(z);
     (sd / dither * (psi((t + 0.5 * dither) / sd) - psi((t - 0.5 * dither) / sd))).clamp(0.0, 1.0)
 }
 
