@@ -67,7 +67,8 @@ pub struct CnnDetector {
     /// Wider images are resized to this width (aspect kept) before the network reads them,
     /// and the boxes scaled back: a convolutional detector finds objects at the sizes in
     /// pixels it was trained on, so 1280 px frames read as they are lose most of them (AP@0.5
-    /// 0.105 against 0.600 resized, docs/BENCHMARKS.md). `None` reads every image as it is.
+    /// 0.105 against 0.600 resized, docs/BENCHMARKS.md). `None` (or 0) reads every image as
+    /// it is.
     pub input_width_px: Option<usize>,
 }
 
@@ -107,8 +108,8 @@ impl CnnDetector {
             });
         }
         match self.input_width_px {
-            Some(width) if image.width > width.max(1) => {
-                let resized = resize_to_width(image, width.max(1));
+            Some(width) if width > 0 && image.width > width => {
+                let resized = resize_to_width(image, width);
                 let view = ImageView { pixels: &resized.pixels, width: resized.width, height: resized.height, ..image };
                 let (sx, sy) = (image.width as f64 / resized.width as f64, image.height as f64 / resized.height as f64);
                 let mut found = self.detect_as_is(view)?;
@@ -147,12 +148,14 @@ struct Resized {
 fn resize_to_width(image: ImageView<'_>, width: usize) -> Resized {
     let height = ((image.height as f64 * width as f64 / image.width as f64).round() as usize).max(1);
     let (w, h) = (image.width as u32, image.height as u32);
+    let (out_w, out_h, filter) = (width as u32, height as u32, image::imageops::FilterType::Triangle);
+    // The buffers borrow the caller's pixels: a 12 MP frame is not copied to be read once.
     let pixels = if image.channels == 3 {
-        let buffer = image::RgbImage::from_raw(w, h, image.pixels.to_vec()).expect("size checked by detect");
-        image::imageops::resize(&buffer, width as u32, height as u32, image::imageops::FilterType::Triangle).into_raw()
+        let buffer = image::ImageBuffer::<image::Rgb<u8>, _>::from_raw(w, h, image.pixels).expect("size checked");
+        image::imageops::resize(&buffer, out_w, out_h, filter).into_raw()
     } else {
-        let buffer = image::GrayImage::from_raw(w, h, image.pixels.to_vec()).expect("size checked by detect");
-        image::imageops::resize(&buffer, width as u32, height as u32, image::imageops::FilterType::Triangle).into_raw()
+        let buffer = image::ImageBuffer::<image::Luma<u8>, _>::from_raw(w, h, image.pixels).expect("size checked");
+        image::imageops::resize(&buffer, out_w, out_h, filter).into_raw()
     };
     Resized { pixels, width, height }
 }
