@@ -14,7 +14,7 @@
 //! SEEDS default 0..2, FRAMES 25, SWEEP `noise`, `blur`, `width` or `all` (the default).
 
 use scene_gen::camera_spec::CameraSpec;
-use scene_gen::evaluate::{DetectorChoice, EvalConfig, evaluate};
+use scene_gen::evaluate::{DetectorChoice, EvalConfig, FrameWidth, evaluate};
 use scene_gen::seeds::SeedRange;
 
 const CAMERA: &str = "IMX172,focal_mm=4";
@@ -64,7 +64,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             label,
             &spec,
             &seeds,
-            EvalConfig { frames_per_scene: frames, max_width_px: Some(*w), ..EvalConfig::default() },
+            EvalConfig { frames_per_scene: frames, max_width_px: FrameWidth::AtMost(*w), ..EvalConfig::default() },
         )?;
     }
     Ok(())

@@ -15,7 +15,8 @@
 
 use scene_gen::camera_spec::CameraSpec;
 use scene_gen::evaluate::{
-    DetectorChoice, EVAL_DECOUPLED_MIN_WIDTH_PX, EVAL_DECOUPLED_STRIDE, EvalConfig, eval_render_settings, evaluate,
+    DetectorChoice, EVAL_DECOUPLED_MIN_WIDTH_PX, EVAL_DECOUPLED_STRIDE, EvalConfig, FrameWidth, eval_render_settings,
+    evaluate,
 };
 use scene_gen::render::{RenderSettings, ShadingRate};
 
@@ -60,7 +61,7 @@ fn main() -> BoxResult<()> {
     let spec = CameraSpec::from_arg("IMX174,focal_mm=4,pitch_deg=-10")?;
     let config = EvalConfig {
         frames_per_scene: 25,
-        max_width_px: Some(1936),
+        max_width_px: FrameWidth::AtMost(1936),
         render,
         render_name: setting.clone(),
         // The figure is about ORB inliers; the detectability model keeps detection cheap at

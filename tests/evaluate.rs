@@ -5,7 +5,9 @@
 use std::process::Command;
 
 use scene_gen::camera_spec::CameraSpec;
-use scene_gen::evaluate::{DetectorChoice, EvalConfig, Evaluation, evaluate, evaluate_traced, evaluate_uncached};
+use scene_gen::evaluate::{
+    DetectorChoice, EvalConfig, Evaluation, FrameWidth, evaluate, evaluate_traced, evaluate_uncached,
+};
 use scene_gen::isp::OutputRule;
 
 const SEED: u64 = 0;
@@ -18,7 +20,7 @@ const DEFAULT_CAMERA: &str = "IMX174,focal_mm=4,pitch_deg=-10";
 fn small() -> EvalConfig {
     EvalConfig {
         frames_per_scene: 6,
-        max_width_px: Some(160),
+        max_width_px: FrameWidth::AtMost(160),
         detector: DetectorChoice::Model,
         ..EvalConfig::default()
     }
@@ -64,7 +66,8 @@ fn day_and_night_are_both_scored_with_the_same_geometry() {
         // them. Over four houses day scores higher, by detection, while night frames hold more
         // ORB inliers, with the sensor noise off too (docs/BENCHMARKS.md, "Detection: day
         // versus night").
-        let e = eval(camera, &EvalConfig { min_usable_images: Some(0), max_width_px: Some(320), ..small() });
+        let e =
+            eval(camera, &EvalConfig { min_usable_images: Some(0), max_width_px: FrameWidth::AtMost(320), ..small() });
         let (day, night) = (&e.scenarios.day, &e.scenarios.night);
         assert!(day.mean_inliers > 0.0 && day.ap50 > 0.0, "{camera}: the day image is usable: {day:?}");
         // The ISP brings the night image to the day's brightness: ORB finds features at night.
@@ -261,7 +264,7 @@ fn native_width_judges_every_pixel_of_the_sensor() {
     };
     let native = run("native");
     let own = run("64");
-    assert_eq!(native["config"]["max_width_px"], serde_json::Value::Null);
+    assert_eq!(native["config"]["max_width_px"], "native");
     assert_eq!(native["camera"]["max_width_px"], serde_json::Value::Null, "{}", native["camera"]);
     assert_eq!(own["config"]["max_width_px"], serde_json::json!(64));
     let keypoints = |v: &serde_json::Value| v["scenarios"]["day"]["mean_keypoints"].as_f64().unwrap();

@@ -38,7 +38,7 @@ def test_evaluate_judges_the_native_width_as_the_command_line(cli):
     expected = json.loads(cli("evaluate", *args, "--json"))
     result = sg.evaluate("PYTHON300,focal_mm=3", frames=1, max_width="native")
     assert result == expected
-    assert result["config"]["max_width_px"] is None
+    assert result["config"]["max_width_px"] == "native"
     with pytest.raises(ValueError, match="max_width"):
         sg.evaluate(CAMERA, frames=1, max_width="wide")
     with pytest.raises(ValueError, match="max_width"):

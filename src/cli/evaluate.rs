@@ -118,15 +118,12 @@ fn summary(e: &Evaluation) -> String {
 }
 
 pub fn run(args: &EvaluateArgs) -> Result<(), CliError> {
-    let mut spec = CameraSpec::from_arg(&args.camera).map_err(bad_input)?;
+    let spec = CameraSpec::from_arg(&args.camera).map_err(bad_input)?;
     let seeds = parse_seeds(&args.seeds)?;
     if args.frames == 0 {
         return Err(bad_input(anyhow!("--frames must be at least 1")));
     }
     let width = FrameWidth::parse(&args.max_width).map_err(|e| bad_input(anyhow!("--max-width: {e}")))?;
-    if width == FrameWidth::Native {
-        spec.max_width_px = None;
-    }
     if !(args.speed_m_s.is_finite() && args.speed_m_s > 0.0) {
         return Err(bad_input(anyhow!("--speed-m-s must be a positive number of m/s")));
     }
@@ -150,7 +147,7 @@ pub fn run(args: &EvaluateArgs) -> Result<(), CliError> {
         render,
         render_name,
         frames_per_scene: args.frames,
-        max_width_px: width.max_width_px(),
+        max_width_px: width,
         speed_m_s: args.speed_m_s,
         output,
         min_usable_images: args.min_usable,

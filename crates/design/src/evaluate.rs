@@ -136,7 +136,7 @@ impl FrameWidth {
         }
     }
 
-    /// The binning width of [`EvalConfig::max_width_px`]: `None` for the native width.
+    /// The camera spec's `max_width_px` for this width: `None` for the native width.
     #[must_use]
     pub fn max_width_px(self) -> Option<u32> {
         match self {
@@ -363,9 +363,9 @@ impl Serialize for DetectorChoice {
 pub struct EvalConfig {
     /// Anchor poses per house, evenly spaced along the walk.
     pub frames_per_scene: u32,
-    /// Bin the sensor down to at most this width (`None`: the spec's own `max_width_px`, the
-    /// sensor's native width for a catalog sensor; [`FrameWidth::max_width_px`]).
-    pub max_width_px: Option<u32>,
+    /// The frames' width: it replaces the camera spec's own `max_width_px`, and
+    /// [`FrameWidth::Native`] judges every pixel of the sensor.
+    pub max_width_px: FrameWidth,
     /// Ray-tracer settings.
     #[serde(skip)]
     pub render: RenderSettings,
@@ -401,7 +401,7 @@ impl Default for EvalConfig {
     fn default() -> Self {
         EvalConfig {
             frames_per_scene: DEFAULT_FRAMES_PER_SCENE,
-            max_width_px: Some(DEFAULT_MAX_WIDTH_PX),
+            max_width_px: FrameWidth::AtMost(DEFAULT_MAX_WIDTH_PX),
             render: eval_render_settings(),
             render_name: "eval".to_string(),
             crossing_at_contact: true,
@@ -611,9 +611,7 @@ pub fn evaluate_uncached(spec: &CameraSpec, seeds: &[u64], config: &EvalConfig) 
 /// uncached entry points.
 fn prepare(spec: &CameraSpec, seeds: &[u64], config: &EvalConfig) -> Result<(CameraSpec, ResolvedCamera), EvalError> {
     let mut spec = spec.clone();
-    if config.max_width_px.is_some() {
-        spec.max_width_px = config.max_width_px;
-    }
+    spec.max_width_px = config.max_width_px.max_width_px();
     spec.validate()?;
     if seeds.is_empty() {
         return Err(EvalError::NoSeeds);

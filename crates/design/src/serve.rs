@@ -228,7 +228,7 @@ impl Job {
     pub fn config(&self) -> EvalConfig {
         EvalConfig {
             frames_per_scene: self.frames,
-            max_width_px: self.max_width.max_width_px(),
+            max_width_px: self.max_width,
             weights: self.weights,
             house: self.house.clone(),
             detector: self.detector.clone(),
@@ -411,13 +411,10 @@ pub fn job_of(request: &Request, defaults: &ServeDefaults, catalog: &Catalog) ->
     };
     let frames = positive("frames", request.frames, defaults.frames)?;
     let weights = weights_of(request.weights.as_ref())?;
-    let mut camera = camera_of(camera_field, catalog)?;
+    let camera = camera_of(camera_field, catalog)?;
     // The request's width wins, then the camera's own, then the server's.
     let max_width =
         request.max_width.unwrap_or_else(|| camera.max_width_px.map_or(defaults.max_width, FrameWidth::AtMost));
-    if max_width == FrameWidth::Native {
-        camera.max_width_px = None;
-    }
     Ok(Job {
         camera,
         seeds,
@@ -735,7 +732,7 @@ mod tests {
         assert_eq!(job.camera.focal_mm, 6.0);
         assert_eq!((job.seeds.clone(), job.frames, job.max_width), (vec![3, 4], 6, FrameWidth::AtMost(100)));
         assert_eq!(job.weights, FitnessWeights::default());
-        assert_eq!(job.config().max_width_px, Some(100));
+        assert_eq!(job.config().max_width_px, FrameWidth::AtMost(100));
         assert_eq!(job.config().frames_per_scene, 6);
 
         let req: Request = serde_json::from_str(
@@ -758,7 +755,7 @@ mod tests {
                 .unwrap();
         let job = job_of(&req, &defaults, &catalog).unwrap();
         assert_eq!(job.max_width, FrameWidth::Native);
-        assert_eq!((job.config().max_width_px, job.camera.max_width_px), (None, None), "every pixel of the sensor");
+        assert_eq!(job.config().max_width_px, FrameWidth::Native, "every pixel of the sensor");
 
         let req: Request = serde_json::from_str(
             r#"{"camera": {"sensor": "IMX174", "max_width_px": 80}, "max_width": 64, "seeds": 5}"#,

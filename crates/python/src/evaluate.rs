@@ -50,10 +50,6 @@ pub fn evaluate(
         return Err(bad_input("frames must be at least 1"));
     }
     let max_width = max_width.as_ref().map(WidthArg::frame_width).transpose()?;
-    let mut spec = camera.spec.clone();
-    if max_width == Some(FrameWidth::Native) {
-        spec.max_width_px = None;
-    }
     let detector = match detector {
         None => DetectorChoice::default(),
         Some(text) => DetectorChoice::parse(text).ok_or_else(|| bad_input("detector: the command is empty"))?,
@@ -61,13 +57,13 @@ pub fn evaluate(
     let house = house::checked_options(envelope, min_room, rooms, furniture)?;
     let config = EvalConfig {
         frames_per_scene: frames.unwrap_or(defaults.frames_per_scene),
-        max_width_px: max_width.map_or(defaults.max_width_px, FrameWidth::max_width_px),
+        max_width_px: max_width.unwrap_or(defaults.max_width_px),
         detector,
         house,
         ..defaults
     };
     let callback = Callback::new(progress, 0);
-    let evaluation = py.detach(|| evaluate_with_progress(&spec, &seeds, &config, &callback));
+    let evaluation = py.detach(|| evaluate_with_progress(&camera.spec, &seeds, &config, &callback));
     callback.finish()?;
     let mut evaluation = evaluation.map_err(|e| match e {
         EvalError::Spec(_) | EvalError::NoSeeds | EvalError::NoFrames | EvalError::BadSpeed(_) => bad_input(e),

@@ -435,7 +435,7 @@ impl OptimizeConfig {
         let w = self.evaluation.weights;
         EvalConfig {
             frames_per_scene: self.evaluation.frames_per_scene,
-            max_width_px: self.evaluation.max_width_px.max_width_px(),
+            max_width_px: self.evaluation.max_width_px,
             weights: FitnessWeights {
                 threshold: w.threshold,
                 ap50: w.ap50,

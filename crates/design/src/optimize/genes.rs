@@ -6,7 +6,6 @@ use rand::Rng;
 use serde::{Deserialize, Serialize};
 
 use super::config::{GeneRange, OptimizeConfig};
-use crate::evaluate::FrameWidth;
 use scene_gen_camera::camera_spec::CameraSpec;
 use scene_gen_camera::sensor::Catalog;
 
@@ -116,12 +115,7 @@ impl Space {
             .filter(|(_, r)| r.enabled)
             .map(|(name, range)| Gene { name, range })
             .collect();
-        let mut base = config.camera.clone();
-        if config.evaluation.max_width_px == FrameWidth::Native {
-            // `evaluation.max_width_px` decides the frame width, the camera table's binning too.
-            base.max_width_px = None;
-        }
-        Space { sensors, sensor_enabled: config.genes.sensor.enabled, base_sensor, genes, base }
+        Space { sensors, sensor_enabled: config.genes.sensor.enabled, base_sensor, genes, base: config.camera.clone() }
     }
 
     /// A genome drawn uniformly: sensor over the catalog, each gene over its range.
