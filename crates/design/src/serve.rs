@@ -206,6 +206,7 @@ pub struct Request {
     pub camera: Option<CameraField>,
     pub seeds: Option<SeedsField>,
     pub frames: Option<u32>,
+    #[serde(default, deserialize_with = "max_width_field")]
     pub max_width: Option<FrameWidth>,
     pub weights: Option<WeightsField>,
 }
@@ -369,6 +370,11 @@ pub fn camera_of(field: &CameraField, catalog: &Catalog) -> Result<CameraSpec, R
     let resolved = spec.resolve(catalog).map_err(|e| spec_error(&e))?;
     spec.sensor = resolved.sensor.model;
     Ok(spec)
+}
+
+/// A request's `max_width`, its error naming the field (serde's own message does not).
+fn max_width_field<'de, D: serde::Deserializer<'de>>(deserializer: D) -> Result<Option<FrameWidth>, D::Error> {
+    Option::<FrameWidth>::deserialize(deserializer).map_err(|e| serde::de::Error::custom(format!("max_width: {e}")))
 }
 
 fn positive(name: &str, v: Option<u32>, default: u32) -> Result<u32, RequestError> {
@@ -680,6 +686,7 @@ mod tests {
         assert_eq!(kind(&v), "bad_request");
         let v = answer(r#"{"id": 2, "camera": "IMX174", "max_width": "full"}"#);
         assert_eq!(kind(&v), "bad_request");
+        assert!(v["error"]["message"].as_str().unwrap().starts_with("max_width: "), "{v}");
         let v = answer(r#"{"id": 2, "camera": "IMX174", "seeds": "5..2"}"#);
         assert_eq!(kind(&v), "bad_request");
         let v = answer(r#"{"id": 2, "camera": "IMX174", "seeds": []}"#);
