@@ -201,6 +201,7 @@ fn bad_input_exits_2_and_writes_nothing() {
     refused(&["--seeds", "x", "--camera", "IMX174"], "--seeds 'x'");
     refused(&["--seeds", "0..2", "--camera", "NOPE123"], "NOPE123");
     refused(&["--seeds", "0..2", "--camera", "IMX174,focal_mm=-1"], "focal_mm");
+    refused(&["--seeds", "0..2", "--camera", "IMX174,height_m=2.6", "--envelope", "12x12x2.5"], "height_m");
     refused(&["--seeds", "0..2", "--camera", "IMX174", "--frames", "0"], "--frames");
     refused(&["--seeds", "0..2", "--camera", "IMX174", "--max-width", "0"], "--max-width");
     refused(&["--seeds", "0..2", "--camera", "IMX174", "--frames", "2", "--every", "3"], "--every");

@@ -225,7 +225,8 @@ fn an_external_oracle_detector_scores_ap_1_through_the_same_coco_code() {
 
 #[test]
 fn bad_camera_specs_exit_2_without_output() {
-    for camera in ["NOSUCHSENSOR", "IMX172,focal_mm=-1", "IMX172,bogus=3", "missing.toml"] {
+    // The last is mounted at the default envelope's 3 m ceiling.
+    for camera in ["NOSUCHSENSOR", "IMX172,focal_mm=-1", "IMX172,bogus=3", "missing.toml", "IMX172,height_m=3"] {
         let out = cli(&["--camera", camera, "--frames", "1", "--max-width", "32", "--json"]);
         assert_eq!(out.status.code(), Some(2), "{camera}: {}", String::from_utf8_lossy(&out.stderr));
         assert!(out.stdout.is_empty(), "{camera}: no partial output");
@@ -243,6 +244,9 @@ fn bad_camera_specs_exit_2_without_output() {
         assert_eq!(out.status.code(), Some(2), "{extra:?}: {}", String::from_utf8_lossy(&out.stderr));
         assert!(out.stdout.is_empty(), "{extra:?}: no partial output");
     }
+    let out = cli(&["--camera", "IMX172,height_m=2.5", "--envelope", "10x10x2.4", "--frames", "1"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("height_m"), "{}", String::from_utf8_lossy(&out.stderr));
     // A negative speed reaches the range check (not clap's "unexpected argument").
     let out = cli(&["--camera", "IMX172", "--speed-m-s", "-1"]);
     assert_eq!(out.status.code(), Some(2));

@@ -60,6 +60,7 @@ fn bad_inputs_exit_2_and_write_nothing() {
     refused("IMX174,focal_mm", None, "focal_mm");
     refused("IMX174,pitch_deg=abc", None, "pitch_deg");
     refused("IMX174,zoom=2", None, "zoom");
+    refused("IMX174,height_m=3.2", None, "height_m");
     refused("IMX174", Some("/nonexistent/scene.json"), "/nonexistent/scene.json");
     let toml = scratch("cam-toml");
     std::fs::create_dir_all(&toml).unwrap();

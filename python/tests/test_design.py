@@ -31,6 +31,8 @@ def test_evaluate_refuses_bad_input():
         sg.evaluate(CAMERA, seeds="3..1")
     with pytest.raises(ValueError, match="expected A..B"):
         sg.evaluate(CAMERA, seeds="zero..two")
+    with pytest.raises(ValueError, match="ceiling"):
+        sg.evaluate("IMX174,height_m=3", frames=1)
 
 
 def test_evaluate_judges_the_native_width_as_the_command_line(cli):

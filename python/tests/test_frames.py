@@ -114,6 +114,13 @@ def test_bad_render_input_raises_value_error(scene, kwargs, words):
         sg.render(scene, CAMERA, **kwargs)
 
 
+def test_a_camera_at_the_ceiling_raises_value_error(scene):
+    with pytest.raises(ValueError, match="height_m"):
+        sg.render(scene, "IMX174,focal_mm=3,height_m=3", frames=1, **RENDER)
+    with pytest.raises(ValueError, match="ceiling"):
+        scene.walk(height_m=3.5)
+
+
 def test_bad_cameras_raise_value_error():
     with pytest.raises(ValueError, match="NOPE"):
         sg.camera("NOPE,focal_mm=3")

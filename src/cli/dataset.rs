@@ -122,6 +122,7 @@ pub fn run(args: &DatasetArgs) -> Result<(), CliError> {
     };
     let quality = Quality::from(args.quality);
     let house = args.house.checked()?;
+    house.envelope.check_camera_height(camera.height_m).map_err(|e| bad_input(anyhow!(e)))?;
     let spec = DatasetSpec { house, raw: args.raw, ..DatasetSpec::new(seeds, camera, lighting, frames, quality) };
     let dataset = Dataset::new(&args.out, spec).map_err(classify)?;
     dataset.check_dir().map_err(classify)?;

@@ -4,9 +4,7 @@
 use anyhow::anyhow;
 use clap::Args;
 use scene_gen::camera_spec::CameraSpec;
-use scene_gen::evaluate::{
-    DetectorChoice, EvalConfig, EvalError, Evaluation, FrameWidth, ScenarioScore, evaluate_with_progress,
-};
+use scene_gen::evaluate::{DetectorChoice, EvalConfig, Evaluation, FrameWidth, ScenarioScore, evaluate_with_progress};
 use scene_gen::isp::OutputRule;
 use scene_gen::render::RenderSettings;
 use scene_gen::seeds::{SeedRange, SeedsError};
@@ -158,10 +156,7 @@ pub fn run(args: &EvaluateArgs) -> Result<(), CliError> {
     let progress = Progress::new("evaluate", "poses", 0);
     let evaluation = evaluate_with_progress(&spec, &seeds, &config, &progress);
     progress.finish();
-    let mut evaluation = evaluation.map_err(|e| match e {
-        EvalError::Spec(_) | EvalError::NoSeeds | EvalError::NoFrames | EvalError::BadSpeed(_) => bad_input(e),
-        other => failure(other),
-    })?;
+    let mut evaluation = evaluation.map_err(|e| if e.is_bad_input() { bad_input(e) } else { failure(e) })?;
     if !args.timing {
         evaluation.timing_s = None;
     }

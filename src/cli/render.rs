@@ -310,6 +310,9 @@ pub fn run(args: &RenderArgs) -> Result<(), CliError> {
         (None, None) => return Err(bad_input(anyhow!("give --scene DIR/scene.json or --seed N"))),
     };
 
+    if given.is_none() {
+        scene.envelope.check_camera_height(spec.height_m).map_err(|e| bad_input(anyhow!(e)))?;
+    }
     let params = TrajectoryParams { height_m: spec.height_m, ..TrajectoryParams::default() };
     // The walk is planned only when no path is given; its first `--frames` poses are the views.
     let (views, walk): (Vec<(Pose, Camera)>, _) = match &given {

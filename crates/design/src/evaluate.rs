@@ -511,6 +511,9 @@ pub enum EvalError {
     NoFrames,
     #[error("speed_m_s must be finite and positive, got {0}")]
     BadSpeed(f64),
+    /// A camera mounted at or above the ceiling sees the roof from outside: nothing to score.
+    #[error("{0}")]
+    AboveCeiling(String),
     #[error(transparent)]
     House(#[from] HouseError),
     #[error("rendering house {seed}: {source}")]
@@ -529,6 +532,21 @@ pub enum EvalError {
     Plugin(#[from] PluginError),
     #[error("writing detector input {path}: {why}")]
     Io { path: String, why: String },
+}
+
+impl EvalError {
+    /// Whether the request itself is at fault (a bad camera or setting, exit status 2 on the
+    /// command line), as against a failure while evaluating.
+    #[must_use]
+    pub fn is_bad_input(&self) -> bool {
+        self.is_bad_camera() || matches!(self, EvalError::NoSeeds | EvalError::NoFrames | EvalError::BadSpeed(_))
+    }
+
+    /// Whether the camera is at fault: its spec, or where it is mounted.
+    #[must_use]
+    pub fn is_bad_camera(&self) -> bool {
+        matches!(self, EvalError::Spec(_) | EvalError::AboveCeiling(_))
+    }
 }
 
 static CACHE: OnceLock<Mutex<HashMap<String, Evaluation>>> = OnceLock::new();
@@ -623,6 +641,7 @@ fn prepare(spec: &CameraSpec, seeds: &[u64], config: &EvalConfig) -> Result<(Cam
         return Err(EvalError::BadSpeed(config.speed_m_s));
     }
     config.house.validate().map_err(HouseError::Options)?;
+    config.house.envelope.check_camera_height(spec.height_m).map_err(EvalError::AboveCeiling)?;
     let resolved = spec.resolve(&Catalog::embedded())?;
     Ok((spec, resolved))
 }

@@ -70,8 +70,8 @@
 //! ```
 //!
 //! `kind` is `bad_request` (not JSON, not an object, an unknown or ill-typed field, no camera,
-//! bad seeds/frames/width), `bad_camera` (the camera spec is malformed, out of range or names
-//! no catalog sensor) or `failure` (the evaluation itself failed; the same request may succeed
+//! bad seeds/frames/width), `bad_camera` (the camera spec is malformed, out of range, names
+//! no catalog sensor or mounts the camera at or above the ceiling) or `failure` (the evaluation itself failed; the same request may succeed
 //! on another server). `line` is the 1-based line number of the request in the input. `id` is
 //! the request's id whenever the line was a JSON object with one. Blank lines are ignored (no
 //! response). A response always has `"ok"`; a driver checks it first.
@@ -86,7 +86,7 @@ use std::time::Instant;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
-use crate::evaluate::{self, DetectorChoice, EvalConfig, EvalError, Fitness, FitnessWeights, FrameWidth, Scenarios};
+use crate::evaluate::{self, DetectorChoice, EvalConfig, Fitness, FitnessWeights, FrameWidth, Scenarios};
 use scene_gen_camera::camera_spec::{CameraSpec, SpecError};
 use scene_gen_camera::sensor::Catalog;
 use scene_gen_core::seeds::SeedRange;
@@ -469,10 +469,12 @@ pub fn run_job(id: Value, job: &Job) -> Result<EvalResponse, RequestError> {
     let (evaluation, cached) = match outcome {
         Ok(Ok(v)) => v,
         Ok(Err(e)) => {
-            let kind = match e {
-                EvalError::Spec(_) => ErrorKind::BadCamera,
-                EvalError::NoSeeds | EvalError::NoFrames => ErrorKind::BadRequest,
-                _ => ErrorKind::Failure,
+            let kind = if e.is_bad_camera() {
+                ErrorKind::BadCamera
+            } else if e.is_bad_input() {
+                ErrorKind::BadRequest
+            } else {
+                ErrorKind::Failure
             };
             return Err(RequestError { kind, message: e.to_string() });
         }
@@ -716,6 +718,7 @@ mod tests {
             r#"{"id": 1, "camera": {"sensor": "IMX174", "lens": "wide"}}"#,
             r#"{"id": 1, "camera": {"focal_mm": 4}}"#,
             r#"{"id": 1, "camera": "IMX174,zoom=3"}"#,
+            r#"{"id": 1, "camera": "IMX174,height_m=3.5"}"#,
         ] {
             let v = answer(line);
             assert_eq!((v["ok"].as_bool(), v["id"].as_u64(), kind(&v)), (Some(false), Some(1), "bad_camera"), "{line}");

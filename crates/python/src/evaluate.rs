@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 
 use pyo3::prelude::*;
-use scene_gen::evaluate::{DetectorChoice, EvalConfig, EvalError, FrameWidth, evaluate_with_progress};
+use scene_gen::evaluate::{DetectorChoice, EvalConfig, FrameWidth, evaluate_with_progress};
 
 use crate::camera::Camera;
 use crate::progress::Callback;
@@ -65,10 +65,7 @@ pub fn evaluate(
     let callback = Callback::new(progress, 0);
     let evaluation = py.detach(|| evaluate_with_progress(&camera.spec, &seeds, &config, &callback));
     callback.finish()?;
-    let mut evaluation = evaluation.map_err(|e| match e {
-        EvalError::Spec(_) | EvalError::NoSeeds | EvalError::NoFrames | EvalError::BadSpeed(_) => bad_input(e),
-        other => failure(other),
-    })?;
+    let mut evaluation = evaluation.map_err(|e| if e.is_bad_input() { bad_input(e) } else { failure(e) })?;
     // The time breakdown is not deterministic; the command line prints it only on request.
     evaluation.timing_s = None;
     serde_json::to_string(&evaluation).map_err(failure)

@@ -96,6 +96,9 @@ pub fn render<'py>(
         (None, None) => None,
     };
     let house = &*scene.house;
+    if given.is_none() {
+        house.envelope.check_camera_height(resolved.spec.height_m).map_err(bad_input)?;
+    }
     let params = TrajectoryParams { height_m: resolved.spec.height_m, ..TrajectoryParams::default() };
     let views: Vec<(Pose, Pinhole)> = match &given {
         Some(given) => given.iter().map(|g| path::given_view(&resolved, g)).collect(),

@@ -128,6 +128,7 @@ impl Scene {
     ) -> PyResult<(Vec<(f32, f32, f32, f32, f32)>, Vec<(u32, usize, f32)>)> {
         let defaults = TrajectoryParams::default();
         let params = TrajectoryParams { height_m: height_m.unwrap_or(defaults.height_m), ..defaults };
+        self.house.envelope.check_camera_height(params.height_m).map_err(bad_input)?;
         let walk = py.detach(|| trajectory::plan(&self.house, &params)).map_err(failure)?;
         let poses =
             walk.poses.iter().map(|p| (p.position.x, p.position.y, p.position.z, p.yaw_deg, p.time_s)).collect();

@@ -195,6 +195,24 @@ impl Default for Envelope {
     }
 }
 
+impl Envelope {
+    /// Checks that a camera mounted `height_m` above the floor is inside the house: at or
+    /// above the ceiling it would see the roof from outside, and every frame would be empty.
+    ///
+    /// # Errors
+    /// The message names the camera spec field and the ceiling height.
+    pub fn check_camera_height(&self, height_m: f32) -> Result<(), String> {
+        if height_m < self.height_m {
+            Ok(())
+        } else {
+            Err(format!(
+                "camera spec field height_m: {height_m} m is not below the ceiling ({} m, the envelope height)",
+                self.height_m
+            ))
+        }
+    }
+}
+
 impl std::fmt::Display for Envelope {
     /// `WIDTHxDEPTHxHEIGHT` in metres, the form `--envelope` takes.
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {

@@ -405,6 +405,21 @@ impl OptimizeConfig {
         if let Err(e) = self.camera.validate() {
             return bad("camera", e.to_string());
         }
+        // A camera at or above the ceiling sees the houses' roof from outside.
+        let ceiling_m = self.house.envelope.height_m;
+        let height = self.genes.height_m;
+        if height.enabled && f64::from(ceiling_m) <= height.max {
+            return bad(
+                "genes.height_m.max",
+                format!("must be below the envelope height {ceiling_m} m, got {}", height.max),
+            );
+        }
+        if !height.enabled && self.camera.height_m >= ceiling_m {
+            return bad(
+                "camera.height_m",
+                format!("must be below the envelope height {ceiling_m} m, got {}", self.camera.height_m),
+            );
+        }
         if scene_gen_camera::sensor::Catalog::embedded().get(&self.camera.sensor).is_none() {
             return bad("camera.sensor", format!("unknown sensor '{}' (see `scene-gen sensors`)", self.camera.sensor));
         }
@@ -532,5 +547,19 @@ mod tests {
         assert!(e.to_string().starts_with("c.toml:3: ga.population: "), "{e}");
         let e = OptimizeConfig::from_toml("seed = \"x\"\n", Path::new("c.toml")).unwrap_err();
         assert!(e.to_string().starts_with("c.toml:1: seed: "), "{e}");
+    }
+
+    /// A camera that could be mounted at or above the ceiling is refused, by the fixed height
+    /// or by the height gene's range, against the house envelope of the same file.
+    #[test]
+    fn a_camera_at_the_ceiling_is_refused() {
+        let fixed = "[camera]\nsensor = \"IMX174\"\nheight_m = 2.5\n[house]\nenvelope = \"12x12x2.5\"\n";
+        let e = OptimizeConfig::from_toml(fixed, Path::new("c.toml")).unwrap_err();
+        assert!(e.to_string().contains("camera.height_m"), "{e}");
+        let gene = "[genes.height_m]\nenabled = true\nmin = 0.5\nmax = 3.2\nadditive = 0.1\n";
+        let e = OptimizeConfig::from_toml(gene, Path::new("c.toml")).unwrap_err();
+        assert!(e.to_string().contains("genes.height_m.max"), "{e}");
+        let tall = format!("{gene}[house]\nenvelope = \"12x12x3.5\"\n");
+        assert!(OptimizeConfig::from_toml(&tall, Path::new("c.toml")).is_ok());
     }
 }
