@@ -206,6 +206,30 @@ fn sensors_command_prints_a_table_or_json() {
     assert!(text.lines().count() >= 44 && text.contains("MT9V022") && text.contains("752x480"));
 }
 
+/// `sensors MODEL` shows one sensor: each noise figure with its kind, camera, source and
+/// formula as text, or the same record `--json` lists; an unknown name exits 2 with close names.
+#[test]
+fn sensors_model_shows_one_sensor_and_its_provenance() {
+    let out = bin().args(["sensors", "imx250"]).output().unwrap();
+    assert!(out.status.success());
+    let text = String::from_utf8(out.stdout).unwrap();
+    assert!(text.starts_with("Sony IMX250: 2448x2048 pixels of 3.45 um"), "{text}");
+    assert!(text.contains("full_well_e = 10715  (derived)"), "{text}");
+    assert!(text.contains("how: saturation capacity = 10^(SNRmax / 10 dB)"), "{text}");
+    assert!(text.contains("source: https://"), "{text}");
+    assert!(text.contains("dark_current_e_per_s = 2.38  (estimated)"), "{text}");
+    let one = bin().args(["sensors", "IMX250", "--json"]).output().unwrap();
+    let all = bin().args(["sensors", "--json"]).output().unwrap();
+    let one: serde_json::Value = serde_json::from_slice(&one.stdout).unwrap();
+    let all: serde_json::Value = serde_json::from_slice(&all.stdout).unwrap();
+    assert_eq!(Some(&one), all.as_array().unwrap().iter().find(|s| s["model"] == "IMX250"));
+    let out = bin().args(["sensors", "IMX25"]).output().unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(out.stdout.is_empty());
+    let err = String::from_utf8(out.stderr).unwrap();
+    assert!(err.contains("unknown sensor 'IMX25'") && err.contains("IMX250"), "{err}");
+}
+
 // ---------------------------------------------------------------- noise model helpers
 
 /// A model with known parameters: K = 0.2 DN/e- at 0 dB, 12 bit, read noise 5 e- (1 DN: well

@@ -4,13 +4,17 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use clap::Args;
+use scene_gen::camera_spec::close_names;
 use scene_gen::sensor::{Catalog, Colour, FigureKind, Sensor, Shutter};
 
 use super::{CliError, bad_input, failure};
 
 #[derive(Args, Debug)]
 pub struct SensorsArgs {
-    /// Print a JSON array instead of a table.
+    /// One sensor (case-insensitive): its specification and, for each noise figure, how it was
+    /// obtained, from which camera and source, and by which formula.
+    pub model: Option<String>,
+    /// Print a JSON array instead of a table (with MODEL: that sensor's JSON object).
     #[arg(long)]
     pub json: bool,
     /// Extra sensors (TOML, same schema as the embedded catalog); a model already present is
@@ -24,6 +28,9 @@ pub fn run(args: &SensorsArgs) -> Result<(), CliError> {
     let mut catalog = Catalog::embedded();
     for path in &args.catalog {
         catalog.load_extra(path).map_err(bad_input)?;
+    }
+    if let Some(model) = &args.model {
+        return show_one(&catalog, model, args.json);
     }
     if args.json {
         let text = serde_json::to_string_pretty(&catalog.records()).map_err(failure)?;
@@ -66,6 +73,61 @@ pub fn run(args: &SensorsArgs) -> Result<(), CliError> {
     );
     emit(&out);
     Ok(())
+}
+
+/// `sensors MODEL`: one sensor's specification and the provenance of each noise figure.
+fn show_one(catalog: &Catalog, model: &str, json: bool) -> Result<(), CliError> {
+    let Some(index) = catalog.sensors().iter().position(|s| s.model.eq_ignore_ascii_case(model)) else {
+        let names = close_names(catalog, model);
+        let hint = if names.is_empty() { String::new() } else { format!("; close names: {}", names.join(", ")) };
+        return Err(bad_input(anyhow::anyhow!("unknown sensor '{model}'{hint}")));
+    };
+    if json {
+        let record = &catalog.records()[index];
+        let text = serde_json::to_string_pretty(record).map_err(failure)?;
+        emit(&format!("{text}\n"));
+        return Ok(());
+    }
+    emit(&describe(&catalog.sensors()[index]));
+    Ok(())
+}
+
+/// The text of `sensors MODEL`.
+fn describe(s: &Sensor) -> String {
+    let mut out = String::new();
+    let shutter = if s.shutter == Shutter::Global { "global" } else { "rolling" };
+    let colour = if s.colour == Colour::Mono { "monochrome" } else { "colour (Bayer)" };
+    let _ = writeln!(
+        out,
+        "{} {}: {}x{} pixels of {} um ({:.3} x {:.3} mm), {shutter} shutter, {} bits, {colour}",
+        s.maker,
+        s.model,
+        s.resolution[0],
+        s.resolution[1],
+        s.pixel_pitch_um,
+        s.active_area_mm[0],
+        s.active_area_mm[1],
+        s.adc_bits
+    );
+    let _ = writeln!(out, "specification: {}", s.spec_source);
+    if !s.note.is_empty() {
+        let _ = writeln!(out, "note: {}", s.note);
+    }
+    for p in s.provenance() {
+        let kind = match p.kind {
+            FigureKind::Measured => "measured",
+            FigureKind::Derived => "derived",
+            FigureKind::Datasheet => "data sheet",
+            FigureKind::Estimated => "estimated",
+        };
+        let _ = writeln!(out, "\n{} = {}  ({kind})", p.field, p.value);
+        for (label, text) in [("camera", &p.camera), ("source", &p.source), ("how", &p.how)] {
+            if !text.is_empty() {
+                let _ = writeln!(out, "  {label}: {text}");
+            }
+        }
+    }
+    out
 }
 
 /// One letter per noise field (QE, full well, read noise, dark current): how it was obtained.
