@@ -4,7 +4,7 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use clap::Args;
-use scene_gen::camera_spec::close_names;
+use scene_gen::camera_spec::{SpecError, close_names};
 use scene_gen::sensor::{Catalog, Colour, FigureKind, Sensor, Shutter};
 
 use super::{CliError, bad_input, failure};
@@ -77,18 +77,15 @@ pub fn run(args: &SensorsArgs) -> Result<(), CliError> {
 
 /// `sensors MODEL`: one sensor's specification and the provenance of each noise figure.
 fn show_one(catalog: &Catalog, model: &str, json: bool) -> Result<(), CliError> {
-    let Some(index) = catalog.sensors().iter().position(|s| s.model.eq_ignore_ascii_case(model)) else {
-        let names = close_names(catalog, model);
-        let hint = if names.is_empty() { String::new() } else { format!("; close names: {}", names.join(", ")) };
-        return Err(bad_input(anyhow::anyhow!("unknown sensor '{model}'{hint}")));
-    };
+    let sensor = catalog.get(model).ok_or_else(|| {
+        bad_input(SpecError::UnknownSensor { name: model.to_string(), suggestions: close_names(catalog, model) })
+    })?;
     if json {
-        let record = &catalog.records()[index];
-        let text = serde_json::to_string_pretty(record).map_err(failure)?;
+        let text = serde_json::to_string_pretty(&sensor.record()).map_err(failure)?;
         emit(&format!("{text}\n"));
-        return Ok(());
+    } else {
+        emit(&describe(sensor));
     }
-    emit(&describe(&catalog.sensors()[index]));
     Ok(())
 }
 
@@ -114,13 +111,7 @@ fn describe(s: &Sensor) -> String {
         let _ = writeln!(out, "note: {}", s.note);
     }
     for p in s.provenance() {
-        let kind = match p.kind {
-            FigureKind::Measured => "measured",
-            FigureKind::Derived => "derived",
-            FigureKind::Datasheet => "data sheet",
-            FigureKind::Estimated => "estimated",
-        };
-        let _ = writeln!(out, "\n{} = {}  ({kind})", p.field, p.value);
+        let _ = writeln!(out, "\n{} = {}  ({})", p.field, p.value, kind_names(p.kind).1);
         for (label, text) in [("camera", &p.camera), ("source", &p.source), ("how", &p.how)] {
             if !text.is_empty() {
                 let _ = writeln!(out, "  {label}: {text}");
@@ -132,17 +123,18 @@ fn describe(s: &Sensor) -> String {
 
 /// One letter per noise field (QE, full well, read noise, dark current): how it was obtained.
 fn provenance_letters(sensor: &Sensor) -> String {
-    let letters: Vec<&str> = sensor
-        .provenance()
-        .iter()
-        .map(|p| match p.kind {
-            FigureKind::Measured => "m",
-            FigureKind::Derived => "d",
-            FigureKind::Datasheet => "s",
-            FigureKind::Estimated => "e",
-        })
-        .collect();
+    let letters: Vec<&str> = sensor.provenance().iter().map(|p| kind_names(p.kind).0).collect();
     letters.join("  ")
+}
+
+/// A figure kind's letter in the table and its name in `sensors MODEL`.
+fn kind_names(kind: FigureKind) -> (&'static str, &'static str) {
+    match kind {
+        FigureKind::Measured => ("m", "measured"),
+        FigureKind::Derived => ("d", "derived"),
+        FigureKind::Datasheet => ("s", "data sheet"),
+        FigureKind::Estimated => ("e", "estimated"),
+    }
 }
 
 /// Whether the sensor's full well and read noise are measured or derived from measurements.

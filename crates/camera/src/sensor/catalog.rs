@@ -190,6 +190,12 @@ impl Sensor {
             .collect()
     }
 
+    /// The sensor with the provenance of its noise fields, as `sensors --json` writes it.
+    #[must_use]
+    pub fn record(&self) -> SensorRecord<'_> {
+        SensorRecord { sensor: self, provenance: self.provenance() }
+    }
+
     /// Whether every noise field is measured, derived or from a data sheet.
     fn fully_sourced(&self) -> bool {
         NOISE_FIELDS.iter().all(|&f| self.figures.iter().any(|g| g.field == f && g.kind != FigureKind::Estimated))
@@ -303,7 +309,7 @@ impl Catalog {
     /// Every sensor with the provenance of its noise fields, as `sensors --json` writes them.
     #[must_use]
     pub fn records(&self) -> Vec<SensorRecord<'_>> {
-        self.sensors.iter().map(|sensor| SensorRecord { sensor, provenance: sensor.provenance() }).collect()
+        self.sensors.iter().map(Sensor::record).collect()
     }
 
     /// All sensors, sorted by active area (smallest first); ties by model name.
