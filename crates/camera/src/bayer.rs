@@ -31,7 +31,7 @@ use crate::demosaic::CfaPattern;
 use crate::develop::{Develop, develop};
 use crate::isp::{MID_GREY_REFLECTANCE, mid_grey_photons};
 use crate::optics::{OpticsInput, OpticsPlan, apply_plan};
-use crate::radiometry::{SensorImage, photon_image};
+use crate::radiometry::{PhotonsPerNit, SensorImage};
 use crate::sensor::{Colour, SensorModel};
 use crate::spectral::ChannelMatrix;
 use scene_gen_render::Camera;
@@ -57,6 +57,35 @@ pub fn electron_model(resolved: &ResolvedCamera, pattern_seed: u64) -> SensorMod
     SensorModel { quantum_efficiency: 1.0, ..resolved.sensor_model(pattern_seed) }
 }
 
+/// Linear RGB radiance (nit) per pixel, row-major: one buffer, or the two light groups of a
+/// frame weighted by a scenario ([`scene_gen_render::Frame::mix`], without making the buffer).
+#[derive(Clone, Copy, Debug)]
+pub enum Radiance<'a> {
+    Rgb(&'a [[f32; 3]]),
+    Mix { day: &'a [[f32; 3]], night: &'a [[f32; 3]], day_weight: f32, night_weight: f32 },
+}
+
+impl Radiance<'_> {
+    fn len(&self) -> usize {
+        match self {
+            Radiance::Rgb(rgb) => rgb.len(),
+            Radiance::Mix { day, .. } => day.len(),
+        }
+    }
+
+    /// The radiance of pixel `i`; a mix is [`scene_gen_render::Frame::mix`]'s sum, term for term.
+    #[inline(always)]
+    fn at(&self, i: usize) -> [f32; 3] {
+        match *self {
+            Radiance::Rgb(rgb) => rgb[i],
+            Radiance::Mix { day, night, day_weight, night_weight } => {
+                let (d, n) = (day[i], night[i]);
+                std::array::from_fn(|c| d[c] * day_weight + n[c] * night_weight)
+            }
+        }
+    }
+}
+
 /// The raw mosaic of `radiance` (linear RGB nit per pixel, scaled to the scenario) seen by the
 /// colour camera `resolved` as `camera` through `pattern`, with the scenario's spectral
 /// `matrix`, at `gain_db`: with the sensor's noise, or its expected values rounded when the
@@ -71,6 +100,25 @@ pub fn capture_mosaic(
     resolved: &ResolvedCamera,
     camera: &Camera,
     radiance: &[[f32; 3]],
+    optics: Option<OpticsInput<'_>>,
+    matrix: &ChannelMatrix,
+    pattern: CfaPattern,
+    gain_db: f64,
+    seeds: (u64, u64),
+) -> SensorImage {
+    capture_mosaic_of(resolved, camera, Radiance::Rgb(radiance), optics, matrix, pattern, gain_db, seeds)
+}
+
+/// [`capture_mosaic`] of any [`Radiance`].
+///
+/// # Panics
+/// If the radiance does not have the camera's pixel count.
+#[must_use]
+#[allow(clippy::too_many_arguments)]
+pub fn capture_mosaic_of(
+    resolved: &ResolvedCamera,
+    camera: &Camera,
+    radiance: Radiance<'_>,
     optics: Option<OpticsInput<'_>>,
     matrix: &ChannelMatrix,
     pattern: CfaPattern,
@@ -104,7 +152,7 @@ pub fn capture_mosaic(
 fn mosaic_electrons(
     resolved: &ResolvedCamera,
     camera: &Camera,
-    radiance: &[[f32; 3]],
+    radiance: Radiance<'_>,
     optics: Option<OpticsInput<'_>>,
     matrix: &ChannelMatrix,
     pattern: CfaPattern,
@@ -113,32 +161,40 @@ fn mosaic_electrons(
     assert_eq!(radiance.len(), w * h, "radiance must have one value per pixel");
     let spec = &resolved.spec;
     let plan = OpticsPlan::new(resolved, camera, optics.as_ref());
-    let electrons_at = |i: usize, photons: [f32; 3]| -> f32 {
-        let row = &matrix.m[pattern.channel(i % w, i / w)];
+    let electrons_at = |x: usize, y: usize, photons: [f32; 3]| -> f32 {
+        let row = &matrix.m[pattern.channel(x, y)];
         let e: f64 = (0..3).map(|k| row[k] * f64::from(photons[k])).sum();
         e.max(0.0) as f32
     };
     // The camera equation is linear in radiance: one photons-per-nit factor per pixel (its
     // fall-off) serves the three rendered channels.
-    let per_nit = photon_image(camera, &vec![1.0; w * h], spec.lens_transmittance, spec.exposure_s);
+    let per_nit = PhotonsPerNit::new(camera, spec.lens_transmittance, spec.exposure_s);
+    let mut electrons = vec![0f32; w * h];
     if plan.is_identity() {
-        return radiance
-            .iter()
-            .zip(&per_nit)
-            .enumerate()
-            .map(|(i, (px, &f))| electrons_at(i, px.map(|v| v.max(0.0) * f)))
-            .collect();
+        // One pass from radiance to electrons: no image in between.
+        for (y, row) in electrons.chunks_exact_mut(w.max(1)).enumerate() {
+            for (x, e) in row.iter_mut().enumerate() {
+                let f = per_nit.photons(1.0, x, y);
+                *e = electrons_at(x, y, radiance.at(y * w + x).map(|v| v.max(0.0) * f));
+            }
+        }
+        return electrons;
     }
     // 555 nm-equivalent photons of each rendered channel, through the optics (linear, so each
     // plane is blurred on its own).
+    let factors: Vec<f32> = (0..w * h).map(|i| per_nit.photons(1.0, i % w, i / w)).collect();
     let planes: Vec<Vec<f32>> = (0..3)
         .map(|k| {
-            let mut photons: Vec<f32> = radiance.iter().zip(&per_nit).map(|(px, &f)| px[k].max(0.0) * f).collect();
+            let mut photons: Vec<f32> =
+                factors.iter().enumerate().map(|(i, &f)| radiance.at(i)[k].max(0.0) * f).collect();
             apply_plan(&plan, camera, &mut photons, optics.as_ref());
             photons
         })
         .collect();
-    (0..w * h).map(|i| electrons_at(i, [planes[0][i], planes[1][i], planes[2][i]])).collect()
+    for (i, e) in electrons.iter_mut().enumerate() {
+        *e = electrons_at(i % w, i / w, [planes[0][i], planes[1][i], planes[2][i]]);
+    }
+    electrons
 }
 
 /// The fixed ISP of a colour camera in one scenario (module docs).
@@ -225,6 +281,33 @@ mod tests {
             // ... and the ISP brings them back to one grey.
             let out = isp.develop(&raw);
             assert!(out.iter().all(|&v| v.abs_diff(118) <= 2), "{illuminant:?}: {:?}", &out[..12]);
+        }
+    }
+
+    /// A scenario's mix read in place gives the mosaic of the mixed buffer, bit for bit, with
+    /// ideal optics (the one-pass path) and with defocus (the per-plane path).
+    #[test]
+    fn a_mix_read_in_place_matches_the_mixed_buffer() {
+        let r = camera(NoiseKind::Emva);
+        let cam = r.camera(Vec3::ZERO, 0.0);
+        let n = (cam.width_px * cam.height_px) as usize;
+        let day: Vec<[f32; 3]> =
+            (0..n).map(|i| [0.3 + (i % 7) as f32 * 0.05, 0.2, 0.1 + (i % 3) as f32 * 0.1]).collect();
+        let night: Vec<[f32; 3]> = (0..n).map(|i| [0.02, 0.01 * (i % 5) as f32, 0.03]).collect();
+        let depth = vec![1.5f32; n];
+        let matrix =
+            ChannelMatrix::new(&QeCurves::typical_bayer(r.sensor.quantum_efficiency), Illuminant::D65, [1.0; 3]);
+        let defocused = ResolvedCamera { spec: CameraSpec { defocus: true, ..r.spec.clone() }, ..r.clone() };
+        for resolved in [&r, &defocused] {
+            for (dw, nw) in [(3.5f32, 0.0f32), (0.0, 0.8), (1.0, 2.0)] {
+                let mixed: Vec<[f32; 3]> =
+                    day.iter().zip(&night).map(|(d, m)| std::array::from_fn(|c| d[c] * dw + m[c] * nw)).collect();
+                let optics = || Some(OpticsInput { depth_m: &depth, velocity_m_s: Vec3::ZERO });
+                let want = capture_mosaic(resolved, &cam, &mixed, optics(), &matrix, CATALOG_PATTERN, 6.0, (1, 2));
+                let mix = Radiance::Mix { day: &day, night: &night, day_weight: dw, night_weight: nw };
+                let got = capture_mosaic_of(resolved, &cam, mix, optics(), &matrix, CATALOG_PATTERN, 6.0, (1, 2));
+                assert_eq!(got, want, "defocus {} weights {dw} {nw}", resolved.spec.defocus);
+            }
         }
     }
 

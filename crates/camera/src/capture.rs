@@ -30,7 +30,7 @@ use scene_gen_scene::lights::{DAY_TARGET_LUX, NIGHT_TARGET_LUX, TARGET_PLANE_M};
 use scene_gen_scene::scene::{LightGroup, Scene};
 use scene_gen_scene::trajectory::Pose;
 
-use crate::bayer::{self, ColourIsp};
+use crate::bayer::{self, ColourIsp, Radiance};
 use crate::camera_spec::{NoiseKind, ResolvedCamera};
 use crate::isp::{self, Isp, OutputRule};
 use crate::optics::{OpticsInput, agent_velocity};
@@ -75,6 +75,16 @@ impl ScenarioLight {
             LightGroup::Day => frame.mix(self.scale, 0.0),
             LightGroup::Night => frame.mix(0.0, self.scale),
         }
+    }
+
+    /// [`ScenarioLight::radiance`] as a view of the frame, for passes that read it once.
+    #[must_use]
+    pub fn radiance_of<'f>(&self, frame: &'f Frame) -> Radiance<'f> {
+        let (day_weight, night_weight) = match self.group {
+            LightGroup::Day => (self.scale, 0.0),
+            LightGroup::Night => (0.0, self.scale),
+        };
+        Radiance::Mix { day: &frame.day_nit, night: &frame.night_nit, day_weight, night_weight }
     }
 }
 
@@ -347,13 +357,12 @@ impl<'a> Capture<'a> {
         key: u64,
     ) -> SensorImage {
         let optics = OpticsInput { depth_m: &frame.depth_m, velocity_m_s: self.velocity(pose) };
-        let radiance = scenario.light.radiance(frame);
         let frame_seed = self.frame_seed(key, scenario);
         match &scenario.colour {
-            Some(colour) => bayer::capture_mosaic(
+            Some(colour) => bayer::capture_mosaic_of(
                 self.camera,
                 pinhole,
-                &radiance,
+                scenario.light.radiance_of(frame),
                 Some(optics),
                 &colour.matrix,
                 colour.develop.pattern,
@@ -363,7 +372,7 @@ impl<'a> Capture<'a> {
             None => capture_frame(
                 self.camera,
                 pinhole,
-                &radiance,
+                &scenario.light.radiance(frame),
                 Some(optics),
                 scenario.gain_db,
                 self.pattern_seed,

@@ -335,34 +335,127 @@ fn hamilton_adams_green(mosaic: &Mosaic<'_>, x: usize, y: usize) -> f32 {
 }
 
 fn directional(mosaic: &Mosaic<'_>) -> Vec<[f32; 3]> {
+    let mut rgb = Vec::with_capacity(mosaic.width * mosaic.height);
+    directional_rows(mosaic, |_, row| rgb.extend_from_slice(row));
+    rgb
+}
+
+/// [`Demosaic::Directional`] row by row: `emit(y, row)` receives each RGB row in order, so a
+/// caller that turns rows into bytes ([`crate::develop`]) never holds the whole float image.
+///
+/// Away from the borders (two pixels for green, one for red and blue) the taps are read at
+/// fixed offsets into the planes, without the mirroring test of every tap; the arithmetic is
+/// the border path's, term for term, so both give the same bits.
+pub(crate) fn directional_rows(mosaic: &Mosaic<'_>, mut emit: impl FnMut(usize, &[[f32; 3]])) {
     let (w, h) = (mosaic.width, mosaic.height);
-    let green: Vec<f32> = (0..h)
-        .flat_map(|y| {
-            (0..w).map(move |x| {
-                if mosaic.channel(x, y, 0, 0) == G { mosaic.at(x, y, 0, 0) } else { hamilton_adams_green(mosaic, x, y) }
-            })
-        })
-        .collect();
+    let green = green_plane(mosaic);
     // Colour differences (sample - green) at the red and blue pixels; 0 elsewhere (unused).
     let difference: Vec<f32> = mosaic.samples.iter().zip(&green).map(|(&s, &g)| s - g).collect();
     let plane = Mosaic { samples: &difference, ..*mosaic };
     let near = Neighbourhoods::new(mosaic);
-    (0..h)
-        .flat_map(|y| (0..w).map(move |x| (x, y)))
-        .map(|(x, y)| {
-            let g = green[y * w + x];
+    let flat = FlatTaps::by_phase(&near, w);
+    let mut row = vec![[0.0f32; 3]; w];
+    for y in 0..h {
+        let inner_row = y >= 1 && y + 1 < h;
+        for (x, out) in row.iter_mut().enumerate() {
+            let i = y * w + x;
+            let g = green[i];
             let own = mosaic.channel(x, y, 0, 0);
             let mut rgb = [0.0, g, 0.0];
             for c in [R, B] {
                 rgb[c] = if c == own {
-                    mosaic.at(x, y, 0, 0)
+                    mosaic.samples[i]
+                } else if inner_row && x >= 1 && x + 1 < w {
+                    g + flat[y % 2][x % 2][c].mean(&difference, i)
                 } else {
                     g + near.mean(x, y, c, |dx, dy| plane.at(x, y, dx, dy))
                 };
             }
-            rgb
+            *out = rgb;
+        }
+        emit(y, &row);
+    }
+}
+
+/// The green plane of [`Demosaic::Directional`]: the samples at green pixels, Hamilton-Adams
+/// elsewhere.
+fn green_plane(mosaic: &Mosaic<'_>) -> Vec<f32> {
+    let (w, h) = (mosaic.width, mosaic.height);
+    let mut green = vec![0.0f32; w * h];
+    for (y, out) in green.chunks_exact_mut(w.max(1)).enumerate() {
+        let inner_row = y >= 2 && y + 2 < h;
+        for (x, g) in out.iter_mut().enumerate() {
+            *g = if mosaic.channel(x, y, 0, 0) == G {
+                mosaic.samples[y * w + x]
+            } else if inner_row && x >= 2 && x + 2 < w {
+                hamilton_adams_green_inner(mosaic.samples, w, y * w + x)
+            } else {
+                hamilton_adams_green(mosaic, x, y)
+            };
+        }
+    }
+    green
+}
+
+/// [`hamilton_adams_green`] at flat index `i`, two or more pixels from every border.
+#[inline(always)]
+fn hamilton_adams_green_inner(s: &[f32], w: usize, i: usize) -> f32 {
+    let centre = s[i];
+    let (left, right, up, down) = (s[i - 1], s[i + 1], s[i - w], s[i + w]);
+    let row_second = 2.0 * centre - s[i - 2] - s[i + 2];
+    let column_second = 2.0 * centre - s[i - 2 * w] - s[i + 2 * w];
+    let row_gradient = (left - right).abs() + row_second.abs();
+    let column_gradient = (up - down).abs() + column_second.abs();
+    let along_row = (left + right) / 2.0 + row_second / 4.0;
+    let along_column = (up + down) / 2.0 + column_second / 4.0;
+    if row_gradient < column_gradient {
+        along_row
+    } else if column_gradient < row_gradient {
+        along_column
+    } else {
+        (along_row + along_column) / 2.0
+    }
+}
+
+/// The [`Taps3`] of one colour at one CFA phase as offsets into a row-major plane of width
+/// `w`, for pixels one or more from every border.
+#[derive(Clone, Copy, Debug, Default)]
+struct FlatTaps {
+    offsets: [isize; 4],
+    weights: [f32; 4],
+    len: usize,
+    weight: f32,
+}
+
+impl FlatTaps {
+    /// Indexed `[y % 2][x % 2][channel]`, as [`Neighbourhoods`].
+    fn by_phase(near: &Neighbourhoods, w: usize) -> [[[FlatTaps; 3]; 2]; 2] {
+        std::array::from_fn(|py| {
+            std::array::from_fn(|px| {
+                std::array::from_fn(|c| {
+                    let taps = &near.by_phase[py][px][c];
+                    let mut flat = FlatTaps { weight: taps.weight, ..FlatTaps::default() };
+                    // A colour has at most four taps in a 3x3 Bayer neighbourhood.
+                    for &(dx, dy, weight) in taps.taps.iter().take(4) {
+                        flat.offsets[flat.len] = dy * w as isize + dx;
+                        flat.weights[flat.len] = weight;
+                        flat.len += 1;
+                    }
+                    flat
+                })
+            })
         })
-        .collect()
+    }
+
+    /// [`Neighbourhoods::mean`] of `plane` around flat index `i`, in the same order of terms.
+    #[inline(always)]
+    fn mean(&self, plane: &[f32], i: usize) -> f32 {
+        let mut sum = 0.0;
+        for k in 0..self.len {
+            sum += self.weights[k] * plane[i.wrapping_add_signed(self.offsets[k])];
+        }
+        sum / self.weight
+    }
 }
 
 /// The mosaic a sensor with `pattern` records of an RGB image: each pixel keeps the channel
@@ -440,6 +533,57 @@ mod tests {
             "directional {}",
             error(Demosaic::Directional)
         );
+    }
+
+    /// The per-pixel definition of [`Demosaic::Directional`], every tap mirrored.
+    fn directional_reference(mosaic: &Mosaic<'_>) -> Vec<[f32; 3]> {
+        let (w, h) = (mosaic.width, mosaic.height);
+        let green: Vec<f32> = (0..h * w)
+            .map(|i| {
+                let (x, y) = (i % w, i / w);
+                if mosaic.channel(x, y, 0, 0) == G { mosaic.at(x, y, 0, 0) } else { hamilton_adams_green(mosaic, x, y) }
+            })
+            .collect();
+        let difference: Vec<f32> = mosaic.samples.iter().zip(&green).map(|(&s, &g)| s - g).collect();
+        let plane = Mosaic { samples: &difference, ..*mosaic };
+        let near = Neighbourhoods::new(mosaic);
+        (0..h * w)
+            .map(|i| {
+                let (x, y) = (i % w, i / w);
+                let own = mosaic.channel(x, y, 0, 0);
+                let mut rgb = [0.0, green[i], 0.0];
+                for c in [R, B] {
+                    rgb[c] = if c == own {
+                        mosaic.at(x, y, 0, 0)
+                    } else {
+                        green[i] + near.mean(x, y, c, |dx, dy| plane.at(x, y, dx, dy))
+                    };
+                }
+                rgb
+            })
+            .collect()
+    }
+
+    /// The fixed-offset inner path gives the bits of the mirrored per-pixel definition, on
+    /// noise-like mosaics of every pattern and of sizes around the border widths.
+    #[test]
+    fn directional_rows_match_the_per_pixel_definition_bit_for_bit() {
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = || {
+            state = state.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+            (state >> 40) as f32 / (1u64 << 24) as f32
+        };
+        for (w, h) in [(1, 1), (2, 3), (4, 4), (5, 5), (6, 7), (17, 12), (64, 9)] {
+            let samples: Vec<f32> = (0..w * h).map(|_| next()).collect();
+            for pattern in PATTERNS {
+                let mosaic = Mosaic { width: w, height: h, pattern, samples: &samples };
+                let want = directional_reference(&mosaic);
+                let got = demosaic(&mosaic, Demosaic::Directional);
+                for (i, (a, b)) in got.iter().zip(&want).enumerate() {
+                    assert_eq!(a.map(f32::to_bits), b.map(f32::to_bits), "{w}x{h} {pattern} pixel {i}");
+                }
+            }
+        }
     }
 
     #[test]

@@ -59,23 +59,41 @@ pub fn photons_per_pixel(
 /// (row-major, `width * height`); the relative illumination is taken at each pixel centre.
 #[must_use]
 pub fn photon_image(camera: &Camera, luminance_nit: &[f32], transmittance: f32, exposure_s: f64) -> Vec<f32> {
+    let per_nit = PhotonsPerNit::new(camera, transmittance, exposure_s);
     let w = camera.width_px as usize;
-    let basis = camera.basis();
-    luminance_nit
-        .iter()
-        .enumerate()
-        .map(|(i, &l)| {
-            let (x, y) = ((i % w) as f32 + 0.5, (i / w) as f32 + 0.5);
-            photons_per_pixel(
-                f64::from(l.max(0.0)),
-                f64::from(camera.f_number),
-                f64::from(transmittance),
-                f64::from(camera.relative_illumination_in(basis, x, y)),
-                exposure_s,
-                f64::from(camera.pixel_pitch_um),
-            ) as f32
-        })
-        .collect()
+    luminance_nit.iter().enumerate().map(|(i, &l)| per_nit.photons(l, i % w, i / w)).collect()
+}
+
+/// The camera equation of one frame with what is the same for every pixel worked out once:
+/// [`photon_image`] one pixel at a time, for passes that fuse it with their own per-pixel work.
+#[derive(Clone, Copy, Debug)]
+pub struct PhotonsPerNit<'a> {
+    camera: &'a Camera,
+    basis: (glam::Vec3, glam::Vec3, glam::Vec3),
+    transmittance: f32,
+    exposure_s: f64,
+}
+
+impl<'a> PhotonsPerNit<'a> {
+    #[must_use]
+    pub fn new(camera: &'a Camera, transmittance: f32, exposure_s: f64) -> PhotonsPerNit<'a> {
+        PhotonsPerNit { camera, basis: camera.basis(), transmittance, exposure_s }
+    }
+
+    /// Mean photons at pixel (`x`, `y`) for a luminance of `luminance_nit` (negative read as 0).
+    #[must_use]
+    #[inline]
+    pub fn photons(&self, luminance_nit: f32, x: usize, y: usize) -> f32 {
+        let camera = self.camera;
+        photons_per_pixel(
+            f64::from(luminance_nit.max(0.0)),
+            f64::from(camera.f_number),
+            f64::from(self.transmittance),
+            f64::from(camera.relative_illumination_in(self.basis, x as f32 + 0.5, y as f32 + 0.5)),
+            self.exposure_s,
+            f64::from(camera.pixel_pitch_um),
+        ) as f32
+    }
 }
 
 /// One simulated sensor image: the digital numbers the ADC reads out.
