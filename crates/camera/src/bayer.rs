@@ -104,78 +104,98 @@ pub fn capture_mosaic(
     matrix: &ChannelMatrix,
     pattern: CfaPattern,
     gain_db: f64,
-    seeds: (u64, u64),
-) -> SensorImage {
-    capture_mosaic_of(resolved, camera, Radiance::Rgb(radiance), optics, matrix, pattern, gain_db, seeds)
-}
-
-/// [`capture_mosaic`] of any [`Radiance`].
-///
-/// # Panics
-/// If the radiance does not have the camera's pixel count.
-#[must_use]
-#[allow(clippy::too_many_arguments)]
-pub fn capture_mosaic_of(
-    resolved: &ResolvedCamera,
-    camera: &Camera,
-    radiance: Radiance<'_>,
-    optics: Option<OpticsInput<'_>>,
-    matrix: &ChannelMatrix,
-    pattern: CfaPattern,
-    gain_db: f64,
     (pattern_seed, frame_seed): (u64, u64),
 ) -> SensorImage {
-    let (w, h) = (camera.width_px as usize, camera.height_px as usize);
-    let electrons = mosaic_electrons(resolved, camera, radiance, optics, matrix, pattern);
-    let model = electron_model(resolved, pattern_seed);
-    let t = resolved.spec.exposure_s;
-    let dn = if resolved.spec.noise == NoiseKind::Off {
-        let max = model.max_dn();
-        electrons
-            .iter()
-            .map(|&e| model.expected_mean_dn(f64::from(e), t, gain_db).round().clamp(0.0, max) as u16)
-            .collect()
-    } else {
-        model.simulate(&electrons, w, h, t, gain_db, frame_seed)
-    };
-    SensorImage {
-        width: camera.width_px,
-        height: camera.height_px,
-        channels: 1,
-        bits: model.adc_bits,
-        cfa: Some(pattern),
-        dn,
-    }
+    let scenario = MosaicScenario { radiance: Radiance::Rgb(radiance), matrix, gain_db, frame_seed };
+    capture_mosaics(resolved, camera, optics, pattern, pattern_seed, &[scenario]).remove(0)
 }
 
-/// Mean electrons of each pixel's CFA channel.
+/// One scenario of a colour capture ([`capture_mosaics`]): its radiance, spectral matrix, gain
+/// (dB) and temporal-noise seed.
+#[derive(Clone, Copy, Debug)]
+pub struct MosaicScenario<'a> {
+    pub radiance: Radiance<'a>,
+    pub matrix: &'a ChannelMatrix,
+    pub gain_db: f64,
+    pub frame_seed: u64,
+}
+
+/// [`capture_mosaic`] of several scenarios of one frame (day and night), in their order: the
+/// camera equation's per-pixel factor is worked out once for all of them, in one pass from
+/// radiance to electrons. Each mosaic is the one [`capture_mosaic`] makes of its scenario.
+///
+/// # Panics
+/// If a radiance does not have the camera's pixel count.
+#[must_use]
+pub fn capture_mosaics(
+    resolved: &ResolvedCamera,
+    camera: &Camera,
+    optics: Option<OpticsInput<'_>>,
+    pattern: CfaPattern,
+    pattern_seed: u64,
+    scenarios: &[MosaicScenario<'_>],
+) -> Vec<SensorImage> {
+    let (w, h) = (camera.width_px as usize, camera.height_px as usize);
+    let model = electron_model(resolved, pattern_seed);
+    let t = resolved.spec.exposure_s;
+    mosaic_electrons(resolved, camera, optics, pattern, scenarios)
+        .into_iter()
+        .zip(scenarios)
+        .map(|(electrons, scenario)| {
+            let gain_db = scenario.gain_db;
+            let dn = if resolved.spec.noise == NoiseKind::Off {
+                let max = model.max_dn();
+                electrons
+                    .iter()
+                    .map(|&e| model.expected_mean_dn(f64::from(e), t, gain_db).round().clamp(0.0, max) as u16)
+                    .collect()
+            } else {
+                model.simulate(&electrons, w, h, t, gain_db, scenario.frame_seed)
+            };
+            SensorImage {
+                width: camera.width_px,
+                height: camera.height_px,
+                channels: 1,
+                bits: model.adc_bits,
+                cfa: Some(pattern),
+                dn,
+            }
+        })
+        .collect()
+}
+
+/// Mean electrons of each pixel's CFA channel, per scenario.
 fn mosaic_electrons(
     resolved: &ResolvedCamera,
     camera: &Camera,
-    radiance: Radiance<'_>,
     optics: Option<OpticsInput<'_>>,
-    matrix: &ChannelMatrix,
     pattern: CfaPattern,
-) -> Vec<f32> {
+    scenarios: &[MosaicScenario<'_>],
+) -> Vec<Vec<f32>> {
     let (w, h) = (camera.width_px as usize, camera.height_px as usize);
-    assert_eq!(radiance.len(), w * h, "radiance must have one value per pixel");
+    for s in scenarios {
+        assert_eq!(s.radiance.len(), w * h, "radiance must have one value per pixel");
+    }
     let spec = &resolved.spec;
     let plan = OpticsPlan::new(resolved, camera, optics.as_ref());
-    let electrons_at = |x: usize, y: usize, photons: [f32; 3]| -> f32 {
+    let electrons_at = |matrix: &ChannelMatrix, x: usize, y: usize, photons: [f32; 3]| -> f32 {
         let row = &matrix.m[pattern.channel(x, y)];
         let e: f64 = (0..3).map(|k| row[k] * f64::from(photons[k])).sum();
         e.max(0.0) as f32
     };
     // The camera equation is linear in radiance: one photons-per-nit factor per pixel (its
-    // fall-off) serves the three rendered channels.
+    // fall-off) serves the three rendered channels of every scenario.
     let per_nit = PhotonsPerNit::new(camera, spec.lens_transmittance, spec.exposure_s);
-    let mut electrons = vec![0f32; w * h];
+    let mut electrons: Vec<Vec<f32>> = scenarios.iter().map(|_| vec![0f32; w * h]).collect();
     if plan.is_identity() {
         // One pass from radiance to electrons: no image in between.
-        for (y, row) in electrons.chunks_exact_mut(w.max(1)).enumerate() {
-            for (x, e) in row.iter_mut().enumerate() {
+        for y in 0..h {
+            for x in 0..w {
+                let i = y * w + x;
                 let f = per_nit.photons(1.0, x, y);
-                *e = electrons_at(x, y, radiance.at(y * w + x).map(|v| v.max(0.0) * f));
+                for (s, out) in scenarios.iter().zip(electrons.iter_mut()) {
+                    out[i] = electrons_at(s.matrix, x, y, s.radiance.at(i).map(|v| v.max(0.0) * f));
+                }
             }
         }
         return electrons;
@@ -183,16 +203,18 @@ fn mosaic_electrons(
     // 555 nm-equivalent photons of each rendered channel, through the optics (linear, so each
     // plane is blurred on its own).
     let factors: Vec<f32> = (0..w * h).map(|i| per_nit.photons(1.0, i % w, i / w)).collect();
-    let planes: Vec<Vec<f32>> = (0..3)
-        .map(|k| {
-            let mut photons: Vec<f32> =
-                factors.iter().enumerate().map(|(i, &f)| radiance.at(i)[k].max(0.0) * f).collect();
-            apply_plan(&plan, camera, &mut photons, optics.as_ref());
-            photons
-        })
-        .collect();
-    for (i, e) in electrons.iter_mut().enumerate() {
-        *e = electrons_at(i % w, i / w, [planes[0][i], planes[1][i], planes[2][i]]);
+    for (s, out) in scenarios.iter().zip(electrons.iter_mut()) {
+        let planes: Vec<Vec<f32>> = (0..3)
+            .map(|k| {
+                let mut photons: Vec<f32> =
+                    factors.iter().enumerate().map(|(i, &f)| s.radiance.at(i)[k].max(0.0) * f).collect();
+                apply_plan(&plan, camera, &mut photons, optics.as_ref());
+                photons
+            })
+            .collect();
+        for (i, e) in out.iter_mut().enumerate() {
+            *e = electrons_at(s.matrix, i % w, i / w, [planes[0][i], planes[1][i], planes[2][i]]);
+        }
     }
     electrons
 }
@@ -284,8 +306,9 @@ mod tests {
         }
     }
 
-    /// A scenario's mix read in place gives the mosaic of the mixed buffer, bit for bit, with
-    /// ideal optics (the one-pass path) and with defocus (the per-plane path).
+    /// A scenario's mix read in place gives the mosaic of the mixed buffer, bit for bit, alone or
+    /// with a second scenario, with ideal optics (the one-pass path) and with defocus (the
+    /// per-plane path).
     #[test]
     fn a_mix_read_in_place_matches_the_mixed_buffer() {
         let r = camera(NoiseKind::Emva);
@@ -305,8 +328,17 @@ mod tests {
                 let optics = || Some(OpticsInput { depth_m: &depth, velocity_m_s: Vec3::ZERO });
                 let want = capture_mosaic(resolved, &cam, &mixed, optics(), &matrix, CATALOG_PATTERN, 6.0, (1, 2));
                 let mix = Radiance::Mix { day: &day, night: &night, day_weight: dw, night_weight: nw };
-                let got = capture_mosaic_of(resolved, &cam, mix, optics(), &matrix, CATALOG_PATTERN, 6.0, (1, 2));
-                assert_eq!(got, want, "defocus {} weights {dw} {nw}", resolved.spec.defocus);
+                let scenario = MosaicScenario { radiance: mix, matrix: &matrix, gain_db: 6.0, frame_seed: 2 };
+                let other = MosaicScenario { radiance: Radiance::Rgb(&day), frame_seed: 3, ..scenario };
+                // Alone, and first of two scenarios taken together.
+                let alone = capture_mosaics(resolved, &cam, optics(), CATALOG_PATTERN, 1, &[scenario]);
+                let both = capture_mosaics(resolved, &cam, optics(), CATALOG_PATTERN, 1, &[scenario, other]);
+                assert_eq!(alone[0], want, "defocus {} weights {dw} {nw}", resolved.spec.defocus);
+                assert_eq!(both[0], want, "defocus {} weights {dw} {nw}", resolved.spec.defocus);
+                assert_eq!(
+                    both[1],
+                    capture_mosaic(resolved, &cam, &day, optics(), &matrix, CATALOG_PATTERN, 6.0, (1, 3))
+                );
             }
         }
     }

@@ -359,16 +359,7 @@ impl<'a> Capture<'a> {
         let optics = OpticsInput { depth_m: &frame.depth_m, velocity_m_s: self.velocity(pose) };
         let frame_seed = self.frame_seed(key, scenario);
         match &scenario.colour {
-            Some(colour) => bayer::capture_mosaic_of(
-                self.camera,
-                pinhole,
-                scenario.light.radiance_of(frame),
-                Some(optics),
-                &colour.matrix,
-                colour.develop.pattern,
-                scenario.gain_db,
-                (self.pattern_seed, frame_seed),
-            ),
+            Some(_) => self.mosaics(frame, pinhole, pose, &[scenario], key).remove(0),
             None => capture_frame(
                 self.camera,
                 pinhole,
@@ -379,6 +370,35 @@ impl<'a> Capture<'a> {
                 frame_seed,
             ),
         }
+    }
+
+    /// The raw mosaics of `scenarios` (each with its colour ISP) of one frame, taken together
+    /// ([`bayer::capture_mosaics`]).
+    ///
+    /// # Panics
+    /// If a scenario has no colour ISP.
+    fn mosaics<'s>(
+        &self,
+        frame: &Frame,
+        pinhole: &Camera,
+        pose: &Pose,
+        scenarios: &[&'s Scenario],
+        key: u64,
+    ) -> Vec<SensorImage> {
+        let colour = |s: &'s Scenario| s.colour.as_ref().expect("a colour camera's scenario has its colour ISP");
+        let Some(first) = scenarios.first() else { return Vec::new() };
+        let takes: Vec<bayer::MosaicScenario<'_>> = scenarios
+            .iter()
+            .map(|&s| bayer::MosaicScenario {
+                radiance: s.light.radiance_of(frame),
+                matrix: &colour(s).matrix,
+                gain_db: s.gain_db,
+                frame_seed: self.frame_seed(key, s),
+            })
+            .collect();
+        let pattern = colour(first).develop.pattern;
+        let optics = OpticsInput { depth_m: &frame.depth_m, velocity_m_s: self.velocity(pose) };
+        bayer::capture_mosaics(self.camera, pinhole, Some(optics), pattern, self.pattern_seed, &takes)
     }
 
     /// [`Capture::sensor_image`] of every scenario, in the scenarios' order: what `render`,
@@ -405,19 +425,18 @@ impl<'a> Capture<'a> {
         rule: OutputRule,
     ) -> Vec<PerceptionImage> {
         if self.scenarios.iter().any(|s| s.colour.is_some()) {
+            let scenarios: Vec<&Scenario> = self.scenarios.iter().collect();
             return self
-                .scenarios
-                .iter()
-                .map(|s| {
-                    let raw = self.sensor_image(frame, pinhole, pose, s, key);
-                    match rule {
-                        OutputRule::Isp => {
-                            let rgb = s.image_8bit(&raw).bytes;
-                            PerceptionImage { grey: luma_of_srgb(&rgb), rgb: Some(rgb) }
-                        }
-                        OutputRule::TopBits => {
-                            PerceptionImage { grey: isp::to_8bit(&raw, OutputRule::TopBits, &s.isp), rgb: None }
-                        }
+                .mosaics(frame, pinhole, pose, &scenarios, key)
+                .into_iter()
+                .zip(&self.scenarios)
+                .map(|(raw, s)| match rule {
+                    OutputRule::Isp => {
+                        let rgb = s.image_8bit(&raw).bytes;
+                        PerceptionImage { grey: luma_of_srgb(&rgb), rgb: Some(rgb) }
+                    }
+                    OutputRule::TopBits => {
+                        PerceptionImage { grey: isp::to_8bit(&raw, OutputRule::TopBits, &s.isp), rgb: None }
                     }
                 })
                 .collect();
