@@ -6,6 +6,7 @@ mod cli;
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
+    keep_freed_buffers();
     // RUST_LOG=info (or debug) shows what each stage did; by default only warnings.
     env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn")).init();
     let args = cli::parse();
@@ -15,6 +16,22 @@ fn main() -> ExitCode {
             eprintln!("error: {}", report(&err.error));
             ExitCode::from(err.status())
         }
+    }
+}
+
+/// Has glibc's allocator serve every allocation from its heap and keep what is freed, instead
+/// of mapping each large buffer fresh from the kernel and unmapping it when freed. A
+/// native-resolution image takes tens of megabytes per stage (electrons, digital numbers,
+/// demosaicing planes, bytes) and every pose allocates them again: mapped afresh, each page is
+/// zeroed by the kernel on first touch, which took an eighth of the CPU time of a 12-megapixel
+/// evaluation (docs/BENCHMARKS.md, "Native resolution"). The process keeps its peak heap until
+/// it exits.
+fn keep_freed_buffers() {
+    #[cfg(all(target_os = "linux", target_env = "gnu"))]
+    // SAFETY: mallopt only sets allocator parameters; it is called before any thread starts.
+    unsafe {
+        libc::mallopt(libc::M_MMAP_MAX, 0);
+        libc::mallopt(libc::M_TRIM_THRESHOLD, i32::MAX);
     }
 }
 
