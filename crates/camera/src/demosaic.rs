@@ -317,7 +317,12 @@ fn malvar_pixel(mosaic: &Mosaic<'_>, x: usize, y: usize) -> [f32; 3] {
 /// Green at a red or blue pixel by Hamilton-Adams: the row or column estimate with the
 /// smaller gradient, their mean on a tie.
 fn hamilton_adams_green(mosaic: &Mosaic<'_>, x: usize, y: usize) -> f32 {
-    let at = |dx, dy| mosaic.at(x, y, dx, dy);
+    hamilton_adams(|dx, dy| mosaic.at(x, y, dx, dy))
+}
+
+/// Hamilton-Adams from the samples `at(dx, dy)` around a red or blue pixel.
+#[inline(always)]
+fn hamilton_adams(at: impl Fn(isize, isize) -> f32) -> f32 {
     let centre = at(0, 0);
     let row_second = 2.0 * centre - at(-2, 0) - at(2, 0);
     let column_second = 2.0 * centre - at(0, -2) - at(0, 2);
@@ -397,24 +402,11 @@ fn green_plane(mosaic: &Mosaic<'_>) -> Vec<f32> {
     green
 }
 
-/// [`hamilton_adams_green`] at flat index `i`, two or more pixels from every border.
+/// [`hamilton_adams_green`] at flat index `i` of samples `s` of width `w`, two or more pixels
+/// from every border: the taps at fixed offsets, no mirroring.
 #[inline(always)]
 fn hamilton_adams_green_inner(s: &[f32], w: usize, i: usize) -> f32 {
-    let centre = s[i];
-    let (left, right, up, down) = (s[i - 1], s[i + 1], s[i - w], s[i + w]);
-    let row_second = 2.0 * centre - s[i - 2] - s[i + 2];
-    let column_second = 2.0 * centre - s[i - 2 * w] - s[i + 2 * w];
-    let row_gradient = (left - right).abs() + row_second.abs();
-    let column_gradient = (up - down).abs() + column_second.abs();
-    let along_row = (left + right) / 2.0 + row_second / 4.0;
-    let along_column = (up + down) / 2.0 + column_second / 4.0;
-    if row_gradient < column_gradient {
-        along_row
-    } else if column_gradient < row_gradient {
-        along_column
-    } else {
-        (along_row + along_column) / 2.0
-    }
+    hamilton_adams(|dx, dy| s[i.wrapping_add_signed(dy * w as isize + dx)])
 }
 
 /// The [`Taps3`] of one colour at one CFA phase as offsets into a row-major plane of width
