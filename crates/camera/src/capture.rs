@@ -68,22 +68,27 @@ impl ScenarioLight {
         scenario_name(self.group)
     }
 
+    /// The weights of the frame's day and night radiance in this scenario: the scale on its
+    /// own group, 0 on the other.
+    #[must_use]
+    pub fn weights(&self) -> (f32, f32) {
+        match self.group {
+            LightGroup::Day => (self.scale, 0.0),
+            LightGroup::Night => (0.0, self.scale),
+        }
+    }
+
     /// The scenario's radiance of a frame: its group's radiance, scaled.
     #[must_use]
     pub fn radiance(&self, frame: &Frame) -> Vec<[f32; 3]> {
-        match self.group {
-            LightGroup::Day => frame.mix(self.scale, 0.0),
-            LightGroup::Night => frame.mix(0.0, self.scale),
-        }
+        let (day_weight, night_weight) = self.weights();
+        frame.mix(day_weight, night_weight)
     }
 
     /// [`ScenarioLight::radiance`] as a view of the frame, for passes that read it once.
     #[must_use]
     pub fn radiance_of<'f>(&self, frame: &'f Frame) -> Radiance<'f> {
-        let (day_weight, night_weight) = match self.group {
-            LightGroup::Day => (self.scale, 0.0),
-            LightGroup::Night => (0.0, self.scale),
-        };
+        let (day_weight, night_weight) = self.weights();
         Radiance::Mix { day: &frame.day_nit, night: &frame.night_nit, day_weight, night_weight }
     }
 }
@@ -356,20 +361,19 @@ impl<'a> Capture<'a> {
         scenario: &Scenario,
         key: u64,
     ) -> SensorImage {
-        let optics = OpticsInput { depth_m: &frame.depth_m, velocity_m_s: self.velocity(pose) };
-        let frame_seed = self.frame_seed(key, scenario);
-        match &scenario.colour {
-            Some(_) => self.mosaics(frame, pinhole, pose, &[scenario], key).remove(0),
-            None => capture_frame(
-                self.camera,
-                pinhole,
-                &scenario.light.radiance(frame),
-                Some(optics),
-                scenario.gain_db,
-                self.pattern_seed,
-                frame_seed,
-            ),
+        if scenario.colour.is_some() {
+            return self.mosaics(frame, pinhole, pose, &[scenario], key).remove(0);
         }
+        let optics = OpticsInput { depth_m: &frame.depth_m, velocity_m_s: self.velocity(pose) };
+        capture_frame(
+            self.camera,
+            pinhole,
+            &scenario.light.radiance(frame),
+            Some(optics),
+            scenario.gain_db,
+            self.pattern_seed,
+            self.frame_seed(key, scenario),
+        )
     }
 
     /// The raw mosaics of `scenarios` (each with its colour ISP) of one frame, taken together
@@ -402,10 +406,19 @@ impl<'a> Capture<'a> {
     }
 
     /// [`Capture::sensor_image`] of every scenario, in the scenarios' order: what `render`,
-    /// `dataset` and the Python package record of one view.
+    /// `dataset` and the Python package record of one view. A colour camera's mosaics are taken
+    /// together ([`bayer::capture_mosaics`]).
     #[must_use]
     pub fn sensor_images(&self, frame: &Frame, pinhole: &Camera, pose: &Pose, key: u64) -> Vec<SensorImage> {
+        if self.is_colour() {
+            return self.mosaics(frame, pinhole, pose, &self.scenarios.iter().collect::<Vec<_>>(), key);
+        }
         self.scenarios.iter().map(|scenario| self.sensor_image(frame, pinhole, pose, scenario, key)).collect()
+    }
+
+    /// Whether the camera samples through a CFA (every scenario then has its colour ISP).
+    fn is_colour(&self) -> bool {
+        self.scenarios.iter().any(|s| s.colour.is_some())
     }
 
     /// What perception sees of every scenario of `frame` under `rule` ([`PerceptionImage`]).
@@ -424,10 +437,9 @@ impl<'a> Capture<'a> {
         key: u64,
         rule: OutputRule,
     ) -> Vec<PerceptionImage> {
-        if self.scenarios.iter().any(|s| s.colour.is_some()) {
-            let scenarios: Vec<&Scenario> = self.scenarios.iter().collect();
+        if self.is_colour() {
             return self
-                .mosaics(frame, pinhole, pose, &scenarios, key)
+                .sensor_images(frame, pinhole, pose, key)
                 .into_iter()
                 .zip(&self.scenarios)
                 .map(|(raw, s)| match rule {
@@ -446,12 +458,9 @@ impl<'a> Capture<'a> {
             .scenarios
             .iter()
             .zip(&seeds)
-            .map(|(s, &frame_seed)| isp::Scenario {
-                day_weight: if s.light.group == LightGroup::Day { s.light.scale } else { 0.0 },
-                night_weight: if s.light.group == LightGroup::Day { 0.0 } else { s.light.scale },
-                gain_db: s.gain_db,
-                frame_seed,
-                isp: &s.isp,
+            .map(|(s, &frame_seed)| {
+                let (day_weight, night_weight) = s.light.weights();
+                isp::Scenario { day_weight, night_weight, gain_db: s.gain_db, frame_seed, isp: &s.isp }
             })
             .collect();
         let optics = OpticsInput { depth_m: &frame.depth_m, velocity_m_s: self.velocity(pose) };

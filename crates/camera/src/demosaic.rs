@@ -410,11 +410,11 @@ fn hamilton_adams_green_inner(s: &[f32], w: usize, i: usize) -> f32 {
 }
 
 /// The [`Taps3`] of one colour at one CFA phase as offsets into a row-major plane of width
-/// `w`, for pixels one or more from every border.
+/// `w`, for pixels one or more from every border (up to all nine of the 3x3 neighbourhood).
 #[derive(Clone, Copy, Debug, Default)]
 struct FlatTaps {
-    offsets: [isize; 4],
-    weights: [f32; 4],
+    offsets: [isize; 9],
+    weights: [f32; 9],
     len: usize,
     weight: f32,
 }
@@ -427,8 +427,7 @@ impl FlatTaps {
                 std::array::from_fn(|c| {
                     let taps = &near.by_phase[py][px][c];
                     let mut flat = FlatTaps { weight: taps.weight, ..FlatTaps::default() };
-                    // A colour has at most four taps in a 3x3 Bayer neighbourhood.
-                    for &(dx, dy, weight) in taps.taps.iter().take(4) {
+                    for &(dx, dy, weight) in &taps.taps {
                         flat.offsets[flat.len] = dy * w as isize + dx;
                         flat.weights[flat.len] = weight;
                         flat.len += 1;

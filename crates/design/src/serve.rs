@@ -72,8 +72,9 @@
 //! `kind` is `bad_request` (not JSON, not an object, an unknown or ill-typed field, no camera,
 //! bad seeds/frames/width), `bad_camera` (the camera spec is malformed, out of range, names
 //! no catalog sensor or mounts the camera at or above the ceiling) or `failure` (the
-//! evaluation itself failed; the same request may succeed on another server). `line` is the 1-based line number of the request in the input. `id` is
-//! the request's id whenever the line was a JSON object with one. Blank lines are ignored (no
+//! evaluation itself failed; the same request may succeed on another server). `line` is the
+//! 1-based line number of the request in the input. `id` is the request's id whenever the line
+//! was a JSON object with one. Blank lines are ignored (no
 //! response). A response always has `"ok"`; a driver checks it first.
 //!
 //! The version string changes when a field changes meaning or disappears; fields may be added
