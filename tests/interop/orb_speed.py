@@ -1,11 +1,14 @@
 """ORB speed, scene-gen vs OpenCV on one thread, same images, same run (a benchmark, not a test).
 
-    cargo build --release --example orb_bench && .venv/bin/python tests/interop/orb_speed.py
+    cargo build --release --example orb_bench && .venv/bin/python tests/interop/orb_speed.py [NAME]
+    .venv/bin/python tests/interop/orb_speed.py A.png B.png [REPS]
 
-Writes a 640x480 photograph (scikit-image's astronaut, grey) and a rotated/shifted copy, times
+With a scikit-image photograph NAME (default astronaut), writes a 640x480 photograph (scikit-image's astronaut, grey) and a rotated/shifted copy, times
 cv2.ORB_create(2000).detectAndCompute and BFMatcher(NORM_HAMMING, crossCheck=True).match (median
 of REPS runs, cv2.setNumThreads(1)), runs target/release/examples/orb_bench on the same files and
-prints the ratios (ours / OpenCV; below 1 is faster). Both sides report the median and the
+prints the ratios (ours / OpenCV; below 1 is faster). Given two image files instead (e.g. the
+day images of `scene-gen render` at a sensor's native size), times both sides on those, read
+as grey, with their size and the time per pixel. Both sides report the median and the
 fastest run; on a shared, loaded machine the fastest run is the steadier figure.
 """
 
@@ -36,6 +39,8 @@ def times_ms(f, reps=REPS):
 
 def main():
     cv2.setNumThreads(1)
+    if len(sys.argv) > 2:
+        return compare(sys.argv[1], sys.argv[2], int(sys.argv[3]) if len(sys.argv) > 3 else 10)
     name = sys.argv[1] if len(sys.argv) > 1 else "astronaut"
     img = getattr(skimage.data, name)()
     if img.ndim == 3:
@@ -66,6 +71,26 @@ def main():
             f"  {label:16s} opencv {cv[0]:7.2f} / {cv[1]:7.2f} ms  ours {med:7.2f} / {best:7.2f} ms  "
             f"ratio {med / cv[0]:.2f} / {best / cv[1]:.2f}"
         )
+    print(f"  match + RANSAC   ours {ours['match_ransac_ms']:7.2f} ms (median)")
+
+
+def compare(pa, pb, reps):
+    """Both extractors on two given image files."""
+    a, b = cv2.imread(pa, cv2.IMREAD_GRAYSCALE), cv2.imread(pb, cv2.IMREAD_GRAYSCALE)
+    for path, img in ((pa, a), (pb, b)):
+        if img is None:
+            sys.exit(f"orb_speed: cannot read {path} as an image")
+    orb = cv2.ORB_create(nfeatures=N)
+    cv_extract = times_ms(lambda: orb.detectAndCompute(a, None), reps)
+    res = subprocess.run([BENCH, pa, pb, str(N), str(reps)], capture_output=True, text=True, check=True)
+    ours = json.loads(res.stdout)
+    pixels = a.shape[0] * a.shape[1]
+    med, best = ours["extract_ms"], ours["extract_min_ms"]
+    print(f"OpenCV {cv2.__version__} (1 thread) vs scene-gen, {pa}: {a.shape[1]}x{a.shape[0]}, {N} features, {reps} runs")
+    print(
+        f"  extraction  opencv {cv_extract[0]:7.2f} / {cv_extract[1]:7.2f} ms ({cv_extract[1] * 1e6 / pixels:.1f} ns/px)  "
+        f"ours {med:7.2f} / {best:7.2f} ms ({best * 1e6 / pixels:.1f} ns/px)  ratio {med / cv_extract[0]:.2f} / {best / cv_extract[1]:.2f}"
+    )
     print(f"  match + RANSAC   ours {ours['match_ransac_ms']:7.2f} ms (median)")
 
 
