@@ -325,3 +325,21 @@ fn cli_refuses_bad_configs_and_foreign_folders_with_exit_2() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("--detector"));
     assert_eq!(std::fs::read(out_dir.join("state.json")).unwrap(), before);
 }
+
+/// The example configurations of examples/optimize parse over the defaults and hold the tasks
+/// their comments describe: `reduced.toml` one house, 10 anchors at 160 px; `native.toml` one
+/// house, 5 anchors at every pixel of the sensor; both keep the default GA.
+#[test]
+fn example_configurations_parse_and_hold_their_tasks() {
+    use scene_gen::evaluate::FrameWidth;
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/optimize");
+    let defaults = OptimizeConfig::from_toml("", Path::new("defaults")).unwrap();
+    let expect = [("reduced.toml", 10, FrameWidth::AtMost(160)), ("native.toml", 5, FrameWidth::Native)];
+    for (name, frames, width) in expect {
+        let config = OptimizeConfig::from_file(&dir.join(name)).unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert_eq!(config.evaluation.seeds, [0], "{name}");
+        assert_eq!(config.evaluation.frames_per_scene, frames, "{name}");
+        assert_eq!(config.evaluation.max_width_px, width, "{name}");
+        assert_eq!(config.budget(), defaults.budget(), "{name}: the default GA's evaluations");
+    }
+}
