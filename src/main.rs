@@ -23,9 +23,8 @@ fn main() -> ExitCode {
 /// of mapping each large buffer fresh from the kernel and unmapping it when freed. A
 /// native-resolution image takes tens of megabytes per stage (electrons, digital numbers,
 /// demosaicing planes, bytes) and every pose allocates them again: mapped afresh, each page is
-/// zeroed by the kernel on first touch, which took an eighth of the CPU time of a 12-megapixel
-/// evaluation (docs/BENCHMARKS.md, "Native resolution"). The process keeps its peak heap until
-/// it exits.
+/// zeroed by the kernel on first touch, kernel time that grows with every pose
+/// (docs/BENCHMARKS.md, "Native resolution"). The process keeps its peak heap until it exits.
 fn keep_freed_buffers() {
     #[cfg(all(target_os = "linux", target_env = "gnu"))]
     // SAFETY: mallopt only sets allocator parameters; it is called before any thread starts.

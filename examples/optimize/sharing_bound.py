@@ -63,16 +63,40 @@ def shared_pixels(candidates, sensors, d, cell_sr):
     return own, float((densest * cell_sr).sum())
 
 
+def fail(message):
+    """Bad input: the message on stderr, exit status 2, nothing printed on stdout."""
+    print(f"sharing_bound: {message}", file=sys.stderr)
+    sys.exit(2)
+
+
+def read_inputs(run, catalog):
+    """The catalog's sensors by model and the run's evaluated candidates, or `fail`."""
+    try:
+        with open(catalog, "rb") as f:
+            sensors = {s["model"]: s for s in tomllib.load(f)["sensor"]}
+        with open(f"{run}/candidates.csv", newline="") as f:
+            # Elites are carried over, not evaluated again; rows keep their line numbers.
+            evaluated = [(line, r) for line, r in enumerate(csv.DictReader(f), 2) if r.get("origin") != "elite"]
+    except (OSError, tomllib.TOMLDecodeError, KeyError) as e:
+        fail(f"{run}: cannot read the run's candidates.csv or the catalog {catalog}: {e}")
+    if not evaluated:
+        fail(f"{run}/candidates.csv: no evaluated candidate")
+    for line, c in evaluated:
+        if c.get("sensor") not in sensors:
+            fail(f"{run}/candidates.csv:{line}: sensor {c.get('sensor')!r} is not in {catalog}")
+        try:
+            float(c["focal_mm"]), float(c["pitch_deg"])
+        except (KeyError, TypeError, ValueError):
+            fail(f"{run}/candidates.csv:{line}: focal_mm or pitch_deg missing or not a number")
+    return sensors, [c for _, c in evaluated]
+
+
 def main():
     if len(sys.argv) not in (2, 3):
-        sys.exit(__doc__.strip().splitlines()[2].strip())
+        fail("usage: " + __doc__.strip().splitlines()[2].strip())
     run = sys.argv[1]
     catalog = sys.argv[2] if len(sys.argv) == 3 else "crates/camera/src/sensor/catalog.toml"
-    with open(catalog, "rb") as f:
-        sensors = {s["model"]: s for s in tomllib.load(f)["sensor"]}
-    with open(f"{run}/candidates.csv", newline="") as f:
-        # Elites are carried over, not evaluated again.
-        evaluated = [r for r in csv.DictReader(f) if r["origin"] != "elite"]
+    sensors, evaluated = read_inputs(run, catalog)
     d, cell_sr = directions()
     mean_mp = sum(math.prod(sensors[c["sensor"]]["resolution"]) for c in evaluated) / len(evaluated) / 1e6
     print(f"{run}: {len(evaluated)} evaluations, mean sensor {mean_mp:.2f} MP")

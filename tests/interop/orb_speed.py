@@ -3,13 +3,14 @@
     cargo build --release --example orb_bench && .venv/bin/python tests/interop/orb_speed.py [NAME]
     .venv/bin/python tests/interop/orb_speed.py A.png B.png [REPS]
 
-With a scikit-image photograph NAME (default astronaut), writes a 640x480 photograph (scikit-image's astronaut, grey) and a rotated/shifted copy, times
-cv2.ORB_create(2000).detectAndCompute and BFMatcher(NORM_HAMMING, crossCheck=True).match (median
-of REPS runs, cv2.setNumThreads(1)), runs target/release/examples/orb_bench on the same files and
-prints the ratios (ours / OpenCV; below 1 is faster). Given two image files instead (e.g. the
-day images of `scene-gen render` at a sensor's native size), times both sides on those, read
-as grey, with their size and the time per pixel. Both sides report the median and the
-fastest run; on a shared, loaded machine the fastest run is the steadier figure.
+With a scikit-image photograph NAME (default astronaut), writes it grey at 640x480 and a
+rotated, shifted copy, times cv2.ORB_create(2000).detectAndCompute and BFMatcher(NORM_HAMMING,
+crossCheck=True).match (median of REPS runs, cv2.setNumThreads(1)), runs
+target/release/examples/orb_bench on the same files and prints the ratios (ours / OpenCV; below
+1 is faster). Given two image files instead (e.g. the day images of `scene-gen render` at a
+sensor's native size), times extraction on both sides on the first, read as grey, with the
+time per pixel. Both sides report the median and the fastest run; on a shared, loaded machine
+the fastest run is the steadier figure. An unreadable image or a bad REPS exits with status 2.
 """
 
 import json
@@ -40,7 +41,10 @@ def times_ms(f, reps=REPS):
 def main():
     cv2.setNumThreads(1)
     if len(sys.argv) > 2:
-        return compare(sys.argv[1], sys.argv[2], int(sys.argv[3]) if len(sys.argv) > 3 else 10)
+        reps = sys.argv[3] if len(sys.argv) > 3 else "10"
+        if not reps.isdigit() or int(reps) < 1:
+            fail(f"REPS {reps!r}: expected a whole number of runs, at least 1")
+        return compare(sys.argv[1], sys.argv[2], int(reps))
     name = sys.argv[1] if len(sys.argv) > 1 else "astronaut"
     img = getattr(skimage.data, name)()
     if img.ndim == 3:
@@ -74,12 +78,18 @@ def main():
     print(f"  match + RANSAC   ours {ours['match_ransac_ms']:7.2f} ms (median)")
 
 
+def fail(message):
+    """Bad input: the message on stderr, exit status 2."""
+    print(f"orb_speed: {message}", file=sys.stderr)
+    sys.exit(2)
+
+
 def compare(pa, pb, reps):
     """Both extractors on two given image files."""
     a, b = cv2.imread(pa, cv2.IMREAD_GRAYSCALE), cv2.imread(pb, cv2.IMREAD_GRAYSCALE)
     for path, img in ((pa, a), (pb, b)):
         if img is None:
-            sys.exit(f"orb_speed: cannot read {path} as an image")
+            fail(f"cannot read {path} as an image")
     orb = cv2.ORB_create(nfeatures=N)
     cv_extract = times_ms(lambda: orb.detectAndCompute(a, None), reps)
     res = subprocess.run([BENCH, pa, pb, str(N), str(reps)], capture_output=True, text=True, check=True)

@@ -52,7 +52,7 @@ fn has_run9(mask: u32) -> bool {
 
 /// OpenCV's FAST-9 score of a pixel given its 16 circle differences `d = centre - p`: the best,
 /// over 9-pixel arcs and both polarities, of the smallest difference on the arc, minus one.
-/// Arc minima by doubling windows (2, 4, 8, then 9) over the circle written out twice.
+/// The 16 arcs' minima and maxima side by side, over the circle written out to 24 entries.
 #[inline(always)]
 fn score_of(d: &[i16; 16]) -> i16 {
     // The circle written out to 24 entries; lane i of lo/hi is the min/max over arc i..i+9.
